@@ -1,0 +1,30 @@
+"""proleg: virtual prototyping of legged robots (multibody dynamics in JAX, float64)."""
+
+import jax as _jax
+
+_jax.config.update("jax_enable_x64", True)
+
+__version__ = "0.1.0"
+
+from . import units as units
+from .errors import ConvergenceError as ConvergenceError
+from .errors import DataError as DataError
+from .errors import ModelError as ModelError
+from .errors import SolverError as SolverError
+from .model.forces import Bushing as Bushing
+from .model.forces import Force as Force
+from .model.forces import RotationalSpringDamper as RotationalSpringDamper
+from .model.forces import SpringDamper as SpringDamper
+from .model.forces import Torque as Torque
+from .model.joints import Cylindrical as Cylindrical
+from .model.joints import Fixed as Fixed
+from .model.joints import Planar as Planar
+from .model.joints import Prismatic as Prismatic
+from .model.joints import Revolute as Revolute
+from .model.joints import Screw as Screw
+from .model.joints import Spherical as Spherical
+from .model.joints import Translational as Translational
+from .model.joints import Universal as Universal
+from .model.model import Model as Model
+from .model.parts import Marker as Marker
+from .model.parts import Part as Part

@@ -1,0 +1,1 @@
+"""1. DESCRIPTION: plain Python, mutable, named elements; no jax here."""

@@ -1,0 +1,144 @@
+"""The Model: a mutable, named collection of parts, markers, joints and force elements."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ModelError
+from ._validate import finite_array
+from .forces import AbstractForceElement, Force, RotationalSpringDamper, Torque
+from .joints import AbstractJoint
+from .parts import Marker, Part, make_marker
+
+
+class Model:
+    """A mechanism description in Adams vocabulary, SI units.
+
+    >>> model = Model("pendulum", gravity=(0, 0, -9.81))
+    >>> bob = model.add_part("bob", mass=1.0, inertia=(1e-3, 1e-3, 1e-3), position=(1, 0, 0))
+    """
+
+    def __init__(self, name: str = "model", gravity=(0.0, 0.0, -9.81)):
+        self.name = name
+        self.gravity = finite_array(f"Model '{name}' gravity", gravity, (3,))
+        self.ground = Part("ground", 0.0, np.eye(3), np.zeros(3), is_ground=True)
+        self.parts: list[Part] = []
+        self.markers: list[Marker] = []
+        self.joints: list[AbstractJoint] = []
+        self.forces: list[AbstractForceElement] = []
+        self.contacts: list = []
+        self.motions: list = []
+        self.controllers: list = []
+        self._names: dict[str, object] = {}
+
+    # -- names -------------------------------------------------------------------------------
+    def _claim(self, kind: str, name: str, obj):
+        key = f"{kind}:{name}"
+        if key in self._names:
+            raise ModelError(f"{kind} '{name}' is defined twice in model '{self.name}'; names must be unique.")
+        self._names[key] = obj
+
+    def _check_part(self, part, who: str):
+        if part is self.ground:
+            return
+        if not isinstance(part, Part) or not any(p is part for p in self.parts):
+            pname = getattr(part, "name", repr(part))
+            raise ModelError(f"{who}: part '{pname}' is not in model '{self.name}'. Add it with model.add_part first.")
+
+    def _check_marker(self, marker, who: str):
+        if not any(m is marker for m in self.markers):
+            raise ModelError(
+                f"{who}: marker '{getattr(marker, 'name', marker)}' is not in model '{self.name}'. "
+                "Create it with model.add_marker."
+            )
+
+    # -- building ----------------------------------------------------------------------------
+    def add_part(self, name, mass, inertia, position, orientation=None, velocity=None, angular_velocity=None) -> Part:
+        """Add a rigid part; see :class:`Part` for units. Returns the part."""
+        if name == "ground":
+            raise ModelError("Part name 'ground' is reserved for model.ground.")
+        self._claim("Part", name, None)
+        part = Part.build(name, mass, inertia, position, orientation, velocity, angular_velocity)
+        self._names[f"Part:{name}"] = part
+        self.parts.append(part)
+        return part
+
+    def add_marker(self, part, name, position, orientation=None) -> Marker:
+        """Add a marker on ``part`` at a ground-frame ``position`` (modelled pose); returns it."""
+        self._check_part(part, f"Marker '{name}'")
+        self._claim("Marker", name, None)
+        m = make_marker(name, part, position, orientation)
+        self._names[f"Marker:{name}"] = m
+        self.markers.append(m)
+        return m
+
+    def _resolve_end(self, joint: AbstractJoint, obj, R, suffix: str) -> Marker:
+        if isinstance(obj, Marker):
+            self._check_marker(obj, f"{type(joint).__name__} '{joint.name}'")
+            return obj
+        self._check_part(obj, f"{type(joint).__name__} '{joint.name}'")
+        return self.add_marker(obj, f"{joint.name}.{suffix}", joint.at, R)
+
+    def add_joint(self, joint: AbstractJoint) -> AbstractJoint:
+        """Add a joint; markers are created at ``joint.at`` when parts were given."""
+        if not isinstance(joint, AbstractJoint):
+            raise ModelError(f"add_joint expects a joint (Revolute, Prismatic, ...), got {joint!r}.")
+        self._claim("Joint", joint.name, joint)
+        Ri, Rj = joint.frames() if (isinstance(joint.i_in, Part) or isinstance(joint.j_in, Part)) else (None, None)
+        joint.marker_i = self._resolve_end(joint, joint.i_in, Ri, "I")
+        joint.marker_j = self._resolve_end(joint, joint.j_in, Rj, "J")
+        self.joints.append(joint)
+        return joint
+
+    def add_force(self, element: AbstractForceElement) -> AbstractForceElement:
+        """Add a force element (SpringDamper, RotationalSpringDamper, Bushing, Force, Torque, ...)."""
+        if not isinstance(element, AbstractForceElement):
+            raise ModelError(f"add_force expects a force element, got {element!r}.")
+        self._claim("Force", element.name, element)
+        who = f"{type(element).__name__} '{element.name}'"
+        for m in element.markers():
+            self._check_marker(m, who)
+        if isinstance(element, RotationalSpringDamper) and element.joint is not None:
+            j = element.joint
+            if isinstance(j, str):
+                j = self.joint(j)
+            if not (j.dof_rotation):
+                raise ModelError(f"{who}: joint '{j.name}' has no rotational degree of freedom about its axis.")
+            element.joint = j
+            element.i, element.j = j.marker_i, j.marker_j
+        if isinstance(element, Force | Torque):
+            if element.marker_in is not None:
+                self._check_marker(element.marker_in, who)
+                element.marker = element.marker_in
+            else:
+                self._check_part(element.part, who)
+                at = element.part.position if element.at is None else element.at
+                element.marker = self.add_marker(element.part, f"{element.name}.at", at)
+        self.forces.append(element)
+        return element
+
+    # -- lookup ------------------------------------------------------------------------------
+    def _get(self, kind, name):
+        try:
+            return self._names[f"{kind}:{name}"]
+        except KeyError:
+            have = sorted(k.split(":", 1)[1] for k in self._names if k.startswith(kind + ":"))
+            raise ModelError(f"No {kind.lower()} named '{name}' in model '{self.name}'. Known: {have}") from None
+
+    def part(self, name: str) -> Part:
+        return self.ground if name == "ground" else self._get("Part", name)
+
+    def marker(self, name: str) -> Marker:
+        return self._get("Marker", name)
+
+    def joint(self, name: str) -> AbstractJoint:
+        return self._get("Joint", name)
+
+    def force(self, name: str) -> AbstractForceElement:
+        return self._get("Force", name)
+
+    def __repr__(self):
+        return (
+            f"Model({self.name!r}: {len(self.parts)} parts, {len(self.joints)} joints, "
+            f"{len(self.forces)} force elements, {len(self.contacts)} contacts)"
+        )

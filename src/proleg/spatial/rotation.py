@@ -1,0 +1,88 @@
+"""Euler-parameter kinematics (Nikravesh 1988 naming; ../shared/notes/formulation.md §1).
+
+``p = (e0, e1, e2, e3)`` with the scalar first. ``A(p)`` rotates body components into ground
+components. ``G(p)`` acts on ground quantities and ``L(p)`` on body quantities
+(Haug 1989 calls the same matrices E and G): ω = 2 G ṗ, ω' = 2 L ṗ.
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+
+
+def skew(a):
+    """Skew matrix ã with ã b = a × b; works on (..., 3)."""
+    a = jnp.asarray(a)
+    z = jnp.zeros_like(a[..., 0])
+    return jnp.stack(
+        [
+            jnp.stack([z, -a[..., 2], a[..., 1]], -1),
+            jnp.stack([a[..., 2], z, -a[..., 0]], -1),
+            jnp.stack([-a[..., 1], a[..., 0], z], -1),
+        ],
+        -2,
+    )
+
+
+def A_of_p(p):
+    """Rotation matrix as the homogeneous quadratic (e0² − eᵀe) I + 2 e eᵀ + 2 e0 ẽ; (..., 4) → (..., 3, 3)."""
+    e0 = p[..., 0]
+    e = p[..., 1:]
+    eye = jnp.eye(3, dtype=p.dtype)
+    return (
+        (e0**2 - jnp.sum(e * e, -1))[..., None, None] * eye
+        + 2.0 * e[..., :, None] * e[..., None, :]
+        + 2.0 * e0[..., None, None] * skew(e)
+    )
+
+
+def G_of_p(p):
+    """G(p) = [−e, ẽ + e0 I] (3×4): ω = 2 G ṗ (ground components)."""
+    e0 = p[..., 0]
+    e = p[..., 1:]
+    return jnp.concatenate([-e[..., :, None], skew(e) + e0[..., None, None] * jnp.eye(3)], -1)
+
+
+def L_of_p(p):
+    """L(p) = [−e, −ẽ + e0 I] (3×4): ω' = 2 L ṗ (body components)."""
+    e0 = p[..., 0]
+    e = p[..., 1:]
+    return jnp.concatenate([-e[..., :, None], -skew(e) + e0[..., None, None] * jnp.eye(3)], -1)
+
+
+def p_from_matrix(R) -> np.ndarray:
+    """Unit quaternion (scalar first, e0 ≥ 0) of a rotation matrix (numpy, outside jit)."""
+    from scipy.spatial.transform import Rotation
+
+    x, y, z, w = Rotation.from_matrix(np.asarray(R, dtype=float)).as_quat()
+    p = np.array([w, x, y, z])
+    return p if p[0] >= 0 else -p
+
+
+def euler_zyx_deg(p):
+    """Yaw-pitch-roll (Z-Y'-X'') angles in degrees from Euler parameters; (..., 4) → (..., 3)."""
+    p = np.asarray(p)
+    e0, e1, e2, e3 = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
+    yaw = np.arctan2(2 * (e0 * e3 + e1 * e2), 1 - 2 * (e2**2 + e3**2))
+    pitch = np.arcsin(np.clip(2 * (e0 * e2 - e3 * e1), -1.0, 1.0))
+    roll = np.arctan2(2 * (e0 * e1 + e2 * e3), 1 - 2 * (e1**2 + e2**2))
+    return np.degrees(np.stack([yaw, pitch, roll], -1))
+
+
+def frame_from_axis(axis, xhint=None) -> np.ndarray:
+    """Right-handed rotation matrix whose z column is ``axis`` (numpy). x follows ``xhint`` if given."""
+    z = np.asarray(axis, dtype=float)
+    z = z / np.linalg.norm(z)
+    if xhint is None:
+        # Pick the ground axis least aligned with z, so x is well defined.
+        cand = np.eye(3)[np.argmin(np.abs(z))]
+        # Prefer ground x when it is clearly not parallel (keeps frames readable).
+        if abs(z[0]) < 0.9:
+            cand = np.array([1.0, 0.0, 0.0])
+    else:
+        cand = np.asarray(xhint, dtype=float)
+    x = cand - z * (cand @ z)
+    x = x / np.linalg.norm(x)
+    y = np.cross(z, x)
+    return np.column_stack([x, y, z])
