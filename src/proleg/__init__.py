@@ -28,3 +28,9 @@ from .model.joints import Universal as Universal
 from .model.model import Model as Model
 from .model.parts import Marker as Marker
 from .model.parts import Part as Part
+from .assembly.system import System as System
+from .assembly.system import assemble as assemble
+from .solvers.galpha import HHT as HHT
+from .solvers.galpha import GeneralizedAlpha as GeneralizedAlpha
+from .analyses.simulate import simulate as simulate
+from .analyses.result import Result as Result

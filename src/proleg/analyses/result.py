@@ -1,0 +1,333 @@
+"""Simulation results: time histories of parts, markers, joints, force elements and energies."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..assembly.constraints import joint_angle, joint_translation
+from ..assembly.system import StateView, System, constraints, kinematic_energy_terms, kinematics
+from ..errors import ModelError, Status
+from ..spatial.rotation import L_of_p, euler_zyx_deg
+from ..solvers.initial import kkt_accelerations
+
+
+@dataclass
+class PartResult:
+    name: str
+    position: np.ndarray  # (n, 3) [m] COM, ground
+    quaternion: np.ndarray  # (n, 4) Euler parameters (scalar first)
+    orientation: np.ndarray  # (n, 3, 3) part axes → ground
+    euler_deg: np.ndarray  # (n, 3) yaw-pitch-roll (Z-Y'-X'') [deg]
+    velocity: np.ndarray  # (n, 3) [m/s]
+    angular_velocity: np.ndarray  # (n, 3) [rad/s], ground components
+    acceleration: np.ndarray  # (n, 3) [m/s^2]
+    angular_acceleration: np.ndarray  # (n, 3) [rad/s^2], ground components
+
+
+@dataclass
+class JointResult:
+    """Reaction of joint ``name`` on its part I (the first part), at marker I's origin.
+
+    ``force``/``torque`` [N, N m] in ground components; ``force_local``/``torque_local`` in
+    marker-I axes; ``angle`` [rad] and ``translation`` [m] of I relative to J about/along z_J.
+    """
+
+    name: str
+    force: np.ndarray
+    torque: np.ndarray
+    force_local: np.ndarray
+    torque_local: np.ndarray
+    angle: np.ndarray
+    translation: np.ndarray
+
+
+class ElementResult(dict):
+    """Named per-element outputs (e.g. ``force``, ``deformation``, ``power``) as attributes."""
+
+    def __getattr__(self, k):
+        try:
+            return self[k]
+        except KeyError:
+            raise AttributeError(f"element output '{k}' not available; have {sorted(self)}") from None
+
+
+class Result:
+    """Output of :func:`proleg.simulate`. Arrays are numpy (jax arrays under transformations)."""
+
+    def __init__(self, system: System, t, q, v, w, z, *, stats=None, status=Status.SUCCESS, message="success", integrator=None):
+        self.system = system
+        self.t = np.asarray(t)
+        self.q, self.v, self.w, self.z = q, v, w, z
+        self.stats = {
+            "steps": int(stats[0]) if stats is not None else 0,
+            "rejected": int(stats[1]) if stats is not None else 0,
+            "newton_iterations": int(stats[2]) if stats is not None else 0,
+        }
+        self.status = status
+        self.message = message
+        self.integrator = integrator
+
+    @property
+    def ok(self) -> bool:
+        return self.status == Status.SUCCESS
+
+    def __len__(self):
+        return len(self.t)
+
+    def _np(self, x):
+        return x if isinstance(x, jax.core.Tracer) else np.asarray(x)
+
+    # -- accelerations and multipliers at the outputs (note §5) --------------------------------
+    @cached_property
+    def _acc(self):
+        f = jax.jit(jax.vmap(kkt_accelerations, in_axes=(None, 0, 0, 0, 0)))
+        return f(self.system, self.q, self.v, jnp.asarray(self.t), self.z)
+
+    @property
+    def qdd(self):
+        return self._acc[0]
+
+    @property
+    def lam(self):
+        return self._acc[1]
+
+    def _index(self, names, name, what):
+        key = getattr(name, "name", name)
+        if key not in names:
+            raise ModelError(f"No {what} named '{key}' in the result. Known: {list(names)}")
+        return names.index(key)
+
+    # -- parts ---------------------------------------------------------------------------------
+    def part(self, name) -> PartResult:
+        b = self._index(self.system.topo.body_names, name, "part")
+        q = self.q[:, 7 * b : 7 * b + 7]
+        v = self.v[:, 7 * b : 7 * b + 7]
+        a = self.qdd[:, 7 * b : 7 * b + 7]
+        p = q[:, 3:]
+        from ..spatial.rotation import A_of_p, G_of_p
+
+        A = A_of_p(p)
+        G = G_of_p(p)
+        w = 2.0 * jnp.einsum("nij,nj->ni", G, v[:, 3:])
+        wd = 2.0 * jnp.einsum("nij,nj->ni", G, a[:, 3:])  # Ġṗ = 0
+        return PartResult(
+            name=str(getattr(name, "name", name)),
+            position=self._np(q[:, :3]),
+            quaternion=self._np(p),
+            orientation=self._np(A),
+            euler_deg=euler_zyx_deg(np.asarray(p)) if not isinstance(p, jax.core.Tracer) else None,
+            velocity=self._np(v[:, :3]),
+            angular_velocity=self._np(w),
+            acceleration=self._np(a[:, :3]),
+            angular_acceleration=self._np(wd),
+        )
+
+    # -- markers -------------------------------------------------------------------------------
+    @cached_property
+    def _marker_kin(self):
+        f = jax.jit(jax.vmap(lambda q, v: kinematics(self.system, q, v)[1]))
+        return f(self.q, self.v)
+
+    def marker(self, name):
+        m = self._index(self.system.topo.marker_names, name, "marker")
+        mk = self._marker_kin
+        return ElementResult(position=self._np(mk.r[:, m]), velocity=self._np(mk.v[:, m]), orientation=self._np(mk.R[:, m]), angular_velocity=self._np(mk.w[:, m]))
+
+    # -- joints --------------------------------------------------------------------------------
+    @cached_property
+    def _reactions(self):
+        return jax.jit(_joint_reactions)(self.system, self.q, jnp.asarray(self.t), self.lam)
+
+    def joint(self, name) -> JointResult:
+        owners = [o.name for o in self.system.topo.ct.owners]
+        k = self._index(owners, name, "joint or motion")
+        F, T, Fl, Tl, ang, tr = (x[:, k] for x in self._reactions)
+        return JointResult(str(getattr(name, "name", name)), *(self._np(x) for x in (F, T, Fl, Tl, ang, tr)))
+
+    # -- force elements ------------------------------------------------------------------------
+    @cached_property
+    def _element_outputs(self):
+        sys_ = self.system
+
+        def one(q, v, t, z):
+            bk, mk = kinematics(sys_, q, v)
+            ctx = StateView(sys_.topo, bk, mk, t, z)
+            return {
+                g.kind: {k: val for k, (val, unit) in g.outputs(sys_.params, mk, t, ctx).items()}
+                for g in sys_.topo.groups + sys_.topo.extensions
+                if len(g) and hasattr(g, "outputs")
+            }
+
+        return jax.jit(jax.vmap(one))(self.q, self.v, jnp.asarray(self.t), self.z)
+
+    def element_units(self):
+        out = {}
+        sys_ = self.system
+        bk, mk = kinematics(sys_, self.q[0], self.v[0])
+        ctx = StateView(sys_.topo, bk, mk, self.t[0], self.z[0])
+        for g in sys_.topo.groups + sys_.topo.extensions:
+            if len(g) and hasattr(g, "outputs"):
+                out[g.kind] = {k: unit for k, (val, unit) in g.outputs(sys_.params, mk, self.t[0], ctx).items()}
+        return out
+
+    def element(self, name) -> ElementResult:
+        """Outputs of the force element (or contact, actuator, controller) called ``name``."""
+        key = getattr(name, "name", name)
+        for g in self.system.topo.groups + self.system.topo.extensions:
+            if key in g.names:
+                k = g.names.index(key)
+                return ElementResult({n: self._np(a[:, k]) for n, a in self._element_outputs[g.kind].items()})
+        raise ModelError(f"No force element named '{key}' in the result.")
+
+    force = element
+
+    # -- energies ------------------------------------------------------------------------------
+    @cached_property
+    def energy(self) -> ElementResult:
+        """kinetic, potential, dissipated, input and total = T + V + dissipated − input [J]."""
+        T, V = jax.jit(jax.vmap(lambda q, v, t, z: kinematic_energy_terms(self.system, q, v, t, z)))(self.q, self.v, jnp.asarray(self.t), self.z)
+        D, W = self.w[:, 0], self.w[:, 1]
+        return ElementResult(kinetic=self._np(T), potential=self._np(V), dissipated=self._np(D), input=self._np(W), total=self._np(T + V + D - W))
+
+    def constraint_residual(self):
+        """max |Φ| at each output time."""
+        f = jax.jit(jax.vmap(lambda q, t: jnp.max(jnp.abs(constraints(self.system, q, t)))))
+        return self._np(f(self.q, jnp.asarray(self.t)))
+
+    # -- export ----------------------------------------------------------------------------------
+    def to_frame(self):
+        """A pandas DataFrame with units in the column names (``"lower.x [m]"``)."""
+        import pandas as pd
+
+        cols = {"time [s]": self.t}
+        for name in self.system.topo.body_names:
+            pr = self.part(name)
+            for k, ax in enumerate("xyz"):
+                cols[f"{name}.{ax} [m]"] = pr.position[:, k]
+            for k in range(4):
+                cols[f"{name}.e{k}"] = pr.quaternion[:, k]
+            for k, ax in enumerate(("yaw", "pitch", "roll")):
+                cols[f"{name}.{ax} [deg]"] = pr.euler_deg[:, k]
+            for k, ax in enumerate("xyz"):
+                cols[f"{name}.v{ax} [m/s]"] = pr.velocity[:, k]
+            for k, ax in enumerate("xyz"):
+                cols[f"{name}.w{ax} [rad/s]"] = pr.angular_velocity[:, k]
+        for o in self.system.topo.ct.owners:
+            jr = self.joint(o.name)
+            for k, ax in enumerate("xyz"):
+                cols[f"{o.name}.F{ax} [N]"] = jr.force[:, k]
+            for k, ax in enumerate("xyz"):
+                cols[f"{o.name}.T{ax} [N m]"] = jr.torque[:, k]
+        units = self.element_units()
+        for g in self.system.topo.groups + self.system.topo.extensions:
+            if not (len(g) and hasattr(g, "outputs")):
+                continue
+            for n in g.names:
+                er = self.element(n)
+                for key, arr in er.items():
+                    u = units[g.kind][key]
+                    arr = np.asarray(arr)
+                    if arr.ndim == 1:
+                        cols[f"{n}.{key} [{u}]"] = arr
+                    else:
+                        for k in range(arr.shape[1]):
+                            cols[f"{n}.{key}_{'xyzabc'[k] if arr.shape[1] <= 6 else k} [{u}]"] = arr[:, k]
+        e = self.energy
+        for k in ("kinetic", "potential", "dissipated", "input", "total"):
+            cols[f"energy.{k} [J]"] = e[k]
+        return pd.DataFrame(cols)
+
+    def to_parquet(self, path):
+        """Write :meth:`to_frame` to Parquet (pyarrow); returns the path."""
+        from pathlib import Path
+
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        df = self.to_frame()
+        df.attrs = {}
+        df.to_parquet(path, index=False)
+        return path
+
+    def plot(self, *columns, ax=None):
+        """Quick look: plot columns of :meth:`to_frame` (substring match) against time."""
+        import matplotlib
+
+        matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+
+        df = self.to_frame()
+        if ax is None:
+            fig, ax = plt.subplots(figsize=(7, 4))
+        sel = [c for c in df.columns if any(s in c for s in columns)] if columns else list(df.columns[1:4])
+        for c in sel:
+            ax.plot(df["time [s]"], df[c], label=c)
+        ax.set_xlabel("time [s]")
+        ax.legend(fontsize=7)
+        ax.grid(alpha=0.3)
+        return ax
+
+    def __repr__(self):
+        return f"Result({self.system.topo.name!r}: {len(self.t)} outputs to t = {self.t[-1]:.4g} s, {self.stats['steps']} steps, {self.message})"
+
+
+def _joint_reactions(system: System, q, t, lam):
+    """Reactions on part I of every constraint owner (joints, then motions), note §5."""
+    topo = system.topo
+    ct = topo.ct
+    nowner = len(ct.owners)
+    mi = np.array([o_mi for o_mi in _owner_markers(topo)[0]], int)
+    mj = np.array([o_mj for o_mj in _owner_markers(topo)[1]], int)
+    masks = np.stack([(ct.row_owner == k).astype(float) for k in range(nowner)]) if nowner else np.zeros((0, ct.n_rows))
+    bi = topo.marker_body[mi]
+    bj = topo.marker_body[mj]
+    nb = topo.nbody
+
+    def at_time(qk, tk, lk):
+        _, vjp = jax.vjp(lambda qq: constraints(system, qq, tk), qk)
+        Qc = -jax.vmap(lambda m: vjp(lk * m)[0])(jnp.asarray(masks))  # (nowner, nq)
+        bk, mk = kinematics(system, qk)
+        Qb = Qc.reshape(nowner, nb, 7)
+
+        def side(b, m):
+            bb = jnp.minimum(b, nb - 1)
+            Fb = Qb[jnp.arange(nowner), bb, :3]
+            Qp = Qb[jnp.arange(nowner), bb, 3:]
+            L = L_of_p(bk.p[bb])
+            n_body = 0.5 * jnp.einsum("nij,nj->ni", L, Qp)
+            A = bk.A[bb]
+            s = system.params["marker_s"][m]
+            n_m = n_body - jnp.cross(s, jnp.einsum("nji,nj->ni", A, Fb))
+            return Fb, jnp.einsum("nij,nj->ni", A, n_m)
+
+        FI, TI = side(jnp.asarray(bi), jnp.asarray(mi))
+        FJ, TJ = side(jnp.asarray(bj), jnp.asarray(mj))
+        rI, rJ = mk.r[mi], mk.r[mj]
+        FI_from_J = -FJ
+        TI_from_J = -TJ - jnp.cross(rI - rJ, FI_from_J)
+        ground_i = jnp.asarray(bi == nb)[:, None]
+        F = jnp.where(ground_i, FI_from_J, FI)
+        T = jnp.where(ground_i, TI_from_J, TI)
+        RI, RJ = mk.R[mi], mk.R[mj]
+        Fl = jnp.einsum("nji,nj->ni", RI, F)
+        Tl = jnp.einsum("nji,nj->ni", RI, T)
+        return F, T, Fl, Tl, joint_angle(RI, RJ), joint_translation(rI, rJ, RJ)
+
+    if nowner == 0:
+        n = q.shape[0]
+        z = jnp.zeros((n, 0, 3))
+        return z, z, z, z, jnp.zeros((n, 0)), jnp.zeros((n, 0))
+    return jax.vmap(at_time)(q, t, lam)
+
+
+def _owner_markers(topo):
+    mi, mj = [], []
+    idx = {n: k for k, n in enumerate(topo.marker_names)}
+    for o in topo.ct.owners:
+        mi.append(idx[o.marker_i.name])
+        mj.append(idx[o.marker_j.name])
+    return mi, mj

@@ -1,0 +1,251 @@
+"""Dynamic simulation (Adams SIMULATE/DYNAMIC): consistent initial conditions, then the
+error-controlled implicit integrator over the requested output times."""
+
+from __future__ import annotations
+
+import math
+import sys
+from functools import partial
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..assembly.system import System, constraints, power_terms
+from ..errors import ConvergenceError, SolverError, Status
+from ..solvers.driver import DriverOptions, advance
+from ..solvers.galpha import GeneralizedAlpha, StepOptions, StepState
+from ..solvers.initial import _normalize_p, kkt_accelerations, mass_matrix
+from .result import Result
+
+
+def is_traced(x) -> bool:
+    return isinstance(x, jax.core.Tracer)
+
+
+def _any_traced(tree) -> bool:
+    return any(is_traced(x) for x in jax.tree_util.tree_leaves(tree))
+
+
+@partial(jax.jit, static_argnums=(4,))
+def _ic(system: System, q_user, v_user, t0, n_iter: int = 8):
+    nb = system.topo.nbody
+    q_user = _normalize_p(q_user, nb)
+
+    def gn(q, _):
+        phi = constraints(system, q, t0)
+        Pq = jax.jacfwd(lambda qq: constraints(system, qq, t0))(q)
+        nq, nc = q.shape[0], phi.shape[0]
+        S = jnp.block([[jnp.eye(nq), Pq.T], [Pq, jnp.zeros((nc, nc))]])
+        dx = jnp.linalg.solve(S, jnp.concatenate([q_user - q, -phi]))
+        return _normalize_p(q + dx[:nq], nb), None
+
+    q, _ = jax.lax.scan(gn, q_user, None, length=n_iter)
+    res = jnp.max(jnp.abs(constraints(system, q, t0)))
+    M = mass_matrix(system, q)
+    Pq = jax.jacfwd(lambda qq: constraints(system, qq, t0))(q)
+    Pt = jax.jacfwd(lambda tt: constraints(system, q, tt))(t0)
+    nq, nc = q.shape[0], Pq.shape[0]
+    S = jnp.block([[M, Pq.T], [Pq, jnp.zeros((nc, nc))]])
+    v = jnp.linalg.solve(S, jnp.concatenate([M @ v_user, -Pt]))[:nq]
+    return q, v, res
+
+
+def consistent_state(system: System, q_user=None, v_user=None, t0=0.0, z0=None, tol=1e-10):
+    """Initial (q, v, q̈, λ) satisfying the constraints at position, velocity and acceleration level."""
+    q_user = system.params["q_init"] if q_user is None else jnp.asarray(q_user, jnp.float64)
+    v_user = system.params["v_init"] if v_user is None else jnp.asarray(v_user, jnp.float64)
+    t0 = jnp.asarray(t0, jnp.float64)
+    q, v, res = _ic(system, q_user, v_user, t0)
+    if not is_traced(res):
+        tries = 0
+        while float(res) > tol and tries < 6:
+            q, v, res = _ic(system, q, v_user, t0, 16)
+            tries += 1
+        if not float(res) <= tol:
+            row = int(jnp.argmax(jnp.abs(constraints(system, q, t0))))
+            elem, lab = system.topo.ct.labels[row]
+            raise ConvergenceError(
+                f"Initial conditions: model '{system.topo.name}' cannot be assembled (constraint residual "
+                f"{float(res):.3g} in '{elem}', equation {lab}). Check joint locations and part poses."
+            )
+    z = jnp.zeros(0) if z0 is None else z0
+    qdd, lam = jax.jit(kkt_accelerations)(system, q, v, t0, z)
+    return q, v, qdd, lam
+
+
+def _ic_report(system, q, v):
+    q_user = np.asarray(system.params["q_init"])
+    v_user = np.asarray(system.params["v_init"])
+    nb = system.topo.nbody
+    qa, qu = np.asarray(q).reshape(nb, 7), q_user.reshape(nb, 7)
+    va, vu = np.asarray(v).reshape(nb, 7), v_user.reshape(nb, 7)
+    out = []
+    for b, name in enumerate(system.topo.body_names):
+        pu = qu[b, 3:] / np.linalg.norm(qu[b, 3:])
+        dr = float(np.linalg.norm(qa[b, :3] - qu[b, :3]))
+        dp = float(2 * min(np.linalg.norm(qa[b, 3:] - pu), np.linalg.norm(qa[b, 3:] + pu)))
+        dv = float(np.linalg.norm(va[b, :3] - vu[b, :3]))
+        if max(dr, dp, dv) > 1e-9:
+            out.append({"part": name, "moved [m]": dr, "rotated [rad]": dp, "velocity change [m/s]": dv})
+    return out
+
+
+def initial_z(system: System):
+    parts = [g.z0(system.params) for g in system.topo.extensions if hasattr(g, "z0")]
+    return jnp.concatenate(parts) if parts else jnp.zeros(0)
+
+
+def sample_period(system: System):
+    periods = [g.period for g in system.topo.extensions if getattr(g, "period", None)]
+    if not periods:
+        return None
+    base = min(periods)
+    return float(base)
+
+
+def simulate(
+    system: System,
+    t_end: float,
+    dt_output: float | None = None,
+    *,
+    t0: float = 0.0,
+    output_times=None,
+    integrator=None,
+    rtol: float = 1e-6,
+    atol: float = 1e-7,
+    atol_p: float | None = None,
+    dt_init: float | None = None,
+    dt_min: float = 1e-10,
+    dt_max: float | None = None,
+    fixed_step: float | None = None,
+    max_newton: int = 10,
+    q0=None,
+    v0=None,
+    progress: bool | None = None,
+    throw: bool = True,
+    chunk: int = 256,
+    on_chunk=None,
+) -> Result:
+    """Integrate ``system`` from ``t0`` to ``t_end``; outputs every ``dt_output`` (or at ``output_times``).
+
+    Parameters
+    ----------
+    integrator : GeneralizedAlpha (default, ρ∞ = 0.8) or HHT
+    rtol, atol, atol_p : local error tolerances (relative; translations [m]; Euler parameters [-])
+    fixed_step : float [s], optional — a fixed step (no error control); output times must be multiples
+    dt_max : float [s], default min(dt_output, 1e-2)
+    progress : show a progress bar (default: on when stderr is a terminal and the run has several chunks)
+    throw : raise :class:`SolverError` on failure (its ``.result`` holds what was computed);
+        otherwise return a Result whose ``status``/``message`` say what happened
+    on_chunk : callable(Result) called after each chunk (e.g. to write partial results)
+
+    Works under ``jax.vmap`` and ``jax.jacfwd`` (the Python loop over chunks is static).
+    """
+    integrator = integrator or GeneralizedAlpha()
+    if output_times is None:
+        if dt_output is None:
+            dt_output = (t_end - t0) / 500.0
+        n = int(math.floor((t_end - t0) / dt_output + 1e-9))
+        times = t0 + dt_output * np.arange(n + 1)
+        if times[-1] < t_end - 1e-12 * max(1.0, abs(t_end)):
+            times = np.append(times, t_end)
+    else:
+        times = np.asarray(output_times, float)
+        if np.any(np.diff(times) <= 0):
+            raise ValueError("output_times must be strictly increasing.")
+        t0 = float(times[0]) if t0 == 0.0 and times[0] > 0 else t0
+    if not t_end > t0:
+        raise ValueError(f"t_end ({t_end}) must be greater than t0 ({t0}).")
+    dt_out = float(np.min(np.diff(times))) if len(times) > 1 else t_end - t0
+    dopts = DriverOptions(
+        step=StepOptions(rtol=rtol, atol=atol, atol_p=atol if atol_p is None else atol_p, max_newton=max_newton),
+        dt_min=dt_min,
+        dt_max=float(dt_max if dt_max is not None else min(dt_out, 1e-2)),
+        fixed_step=fixed_step,
+        sample_period=sample_period(system),
+    )
+    z0 = initial_z(system)
+    q, v, qdd, lam = consistent_state(system, q0, v0, t0, z0)
+    traced = _any_traced((system.params, q))
+    pw = power_terms(system, q, v, t0, z0)
+    st = StepState(
+        t=jnp.asarray(t0, jnp.float64), q=q, v=v, a=qdd, qdd=qdd, lam=lam,
+        h_prev=jnp.asarray(1.0), w=jnp.zeros(2), pw=pw, z=z0, g=jnp.zeros_like(q),
+    )
+    h = jnp.asarray(dt_init if dt_init is not None else (fixed_step or min(1e-4, dopts.dt_max)), jnp.float64)
+    st = st._replace(h_prev=h)
+
+    out_t = times[1:] if times[0] == t0 else times
+    K = int(min(chunk, max(1, len(out_t))))
+    nchunks = int(math.ceil(len(out_t) / K))
+    rec = {"q": [q[None]], "v": [v[None]], "w": [jnp.zeros((1, 2))], "z": [z0[None]]}
+    rec_t = [np.array([t0])]
+    stats = np.zeros(3, int)
+    status, fail_t, worst = Status.SUCCESS, None, None
+    show = progress if progress is not None else (sys.stderr.isatty() and nchunks > 1 and not traced)
+    bar = None
+    if show and not traced:
+        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+        bar = Progress(TextColumn(f"[bold]{system.topo.name}[/] t ="), TextColumn("{task.fields[t]:.4f} s"), BarColumn(), TimeElapsedColumn(), transient=True)
+        bar.start()
+        task = bar.add_task("sim", total=float(t_end - t0), t=t0)
+    partial_result = None
+    try:
+        for c in range(nchunks):
+            tc = out_t[c * K : (c + 1) * K]
+            n_valid = len(tc)
+            tpad = np.concatenate([tc, np.full(K - n_valid, tc[-1])])
+            st, h, k, bufs, (ns, nr, nn), stat, ft, wr = advance(system, integrator, dopts, st, h, jnp.asarray(tpad), n_valid)
+            if traced:
+                rec_t.append(tc)
+                for key, b in zip(("q", "v", "w", "z"), bufs):
+                    rec[key].append(b[:n_valid])
+                continue
+            k = int(k)
+            stats += np.array([int(ns), int(nr), int(nn)])
+            rec_t.append(tc[:k])
+            for key, b in zip(("q", "v", "w", "z"), bufs):
+                rec[key].append(b[:k])
+            if bar is not None:
+                bar.update(task, completed=float(st.t) - t0, t=float(st.t))
+            if int(stat) != 0:
+                status, fail_t, worst = Status(int(stat)), float(ft), int(wr)
+                break
+            if on_chunk is not None:
+                partial_result = _build(system, rec_t, rec, stats, status, "running", integrator)
+                on_chunk(partial_result)
+    finally:
+        if bar is not None:
+            bar.stop()
+    msg = "success"
+    if status != Status.SUCCESS:
+        msg = _failure_message(system, status, fail_t, worst)
+    result = _build(system, rec_t, rec, stats, status, msg, integrator)
+    if status != Status.SUCCESS and throw:
+        raise SolverError(msg, result)
+    return result
+
+
+def _failure_message(system, status, t, worst):
+    topo = system.topo
+    where = "unknown element"
+    if worst is not None:
+        if status == Status.NEWTON_FAILED and worst >= topo.nq:
+            elem, lab = topo.ct.labels[worst - topo.nq]
+            where = f"constraint '{elem}' ({lab})"
+        else:
+            b = min(worst // 7, topo.nbody - 1)
+            where = f"part '{topo.body_names[b]}'"
+            near = [g for g in topo.extensions if hasattr(g, "elements_on_body")]
+            names = [n for g in near for n in g.elements_on_body(b)]
+            if names:
+                where += f" (contact/element: {', '.join(names)})"
+    return f"{status.describe()} at t = {t:.6g} s; worst offender: {where}."
+
+
+def _build(system, rec_t, rec, stats, status, msg, integrator):
+    t = np.concatenate(rec_t)
+    arrs = {k: jnp.concatenate(v, 0) for k, v in rec.items()}
+    return Result(system, t, arrs["q"], arrs["v"], arrs["w"], arrs["z"], stats=stats, status=status, message=msg, integrator=integrator)

@@ -1,0 +1,141 @@
+"""Constraint equations Φ(q, t) from Haug's basic constraints (formulation note §2).
+
+Joint equations are decomposed into primitive rows, grouped by kind and evaluated vectorised
+(one-hot selections of marker frames), so compile time does not grow with the number of joints:
+
+- ``sph``:  component k of d = r_J − r_I (ground)
+- ``dot1``: a_I · b_J   (axes of the I and J marker frames)
+- ``dot2``: a_I · d
+- ``screw``: z_J·(r_I − r_J) − ℓ θ,  θ = atan2(x_I·y_J, x_I·x_J),  ℓ = pitch/2π
+- ``drv``:  joint coordinate of I relative to J − f(t) (motions, issue "Contacts, motions ...")
+- ``norm``: pᵀp − 1 per body (always last, never dropped)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import jax.numpy as jnp
+import numpy as np
+
+
+@dataclass(eq=False)
+class ConstraintTopology:
+    """Static description of the kept constraint rows (numpy arrays, hashed by identity)."""
+
+    sph_i: np.ndarray  # (n, nm) one-hot
+    sph_j: np.ndarray
+    sph_k: np.ndarray  # (n, 3) one-hot component
+    d1_i: np.ndarray
+    d1_a: np.ndarray  # (n, 3) axis of I
+    d1_j: np.ndarray
+    d1_b: np.ndarray  # (n, 3) axis of J
+    d2_i: np.ndarray
+    d2_a: np.ndarray
+    d2_j: np.ndarray
+    sc_i: np.ndarray
+    sc_j: np.ndarray
+    sc_param: np.ndarray  # (n,) int, index into params["screw_lead"]
+    drv_i: np.ndarray
+    drv_j: np.ndarray
+    drv_rot: np.ndarray  # (n,) bool: rotational (True) or translational driver
+    drv_fn: tuple = ()  # callables f(t) per driver row
+    nbody: int = 0
+    labels: list = field(default_factory=list)  # (element name, equation label) per row, in Φ order
+    row_owner: np.ndarray = None  # (nrows,) int index into owners (joints, then motions); -1 for norm rows
+    owners: list = field(default_factory=list)
+
+    @property
+    def n_rows(self) -> int:
+        return len(self.labels)
+
+
+def _oh(idx, n):
+    out = np.zeros((len(idx), n))
+    if len(idx):
+        out[np.arange(len(idx)), np.asarray(idx, int)] = 1.0
+    return out
+
+
+def build_constraint_topology(rows, nm: int, nbody: int, owners) -> ConstraintTopology:
+    """``rows``: list of dicts with kind, mi, mj, args, owner (int), label; normalization appended."""
+    by = {k: [r for r in rows if r["kind"] == k] for k in ("sph", "dot1", "dot2", "screw", "drv")}
+    eye3 = np.eye(3)
+
+    def ax(lst, pos):
+        return np.array([eye3[r["args"][pos]] for r in lst]).reshape(len(lst), 3)
+
+    ct = ConstraintTopology(
+        sph_i=_oh([r["mi"] for r in by["sph"]], nm),
+        sph_j=_oh([r["mj"] for r in by["sph"]], nm),
+        sph_k=ax(by["sph"], 0),
+        d1_i=_oh([r["mi"] for r in by["dot1"]], nm),
+        d1_a=ax(by["dot1"], 0),
+        d1_j=_oh([r["mj"] for r in by["dot1"]], nm),
+        d1_b=ax(by["dot1"], 1),
+        d2_i=_oh([r["mi"] for r in by["dot2"]], nm),
+        d2_a=ax(by["dot2"], 0),
+        d2_j=_oh([r["mj"] for r in by["dot2"]], nm),
+        sc_i=_oh([r["mi"] for r in by["screw"]], nm),
+        sc_j=_oh([r["mj"] for r in by["screw"]], nm),
+        sc_param=np.array([r["args"][0] for r in by["screw"]], int),
+        drv_i=_oh([r["mi"] for r in by["drv"]], nm),
+        drv_j=_oh([r["mj"] for r in by["drv"]], nm),
+        drv_rot=np.array([r["args"][0] for r in by["drv"]], bool),
+        drv_fn=tuple(r["args"][1] for r in by["drv"]),
+        nbody=nbody,
+        owners=list(owners),
+    )
+    ordered = by["sph"] + by["dot1"] + by["dot2"] + by["screw"] + by["drv"]
+    ct.labels = [(owners[r["owner"]].name, r["label"]) for r in ordered] + [
+        (f"body{b}", "normalization") for b in range(nbody)
+    ]
+    ct.row_owner = np.array([r["owner"] for r in ordered] + [-1] * nbody, int)
+    return ct
+
+
+def joint_angle(RI, RJ):
+    """Rotation of I relative to J about z_J: atan2(x_I·y_J, x_I·x_J); (..., 3, 3) → (...)."""
+    xi = RI[..., :, 0]
+    return jnp.arctan2(jnp.sum(xi * RJ[..., :, 1], -1), jnp.sum(xi * RJ[..., :, 0], -1))
+
+
+def joint_translation(rI, rJ, RJ):
+    """Translation of I relative to J along z_J: z_Jᵀ(r_I − r_J)."""
+    return jnp.sum(RJ[..., :, 2] * (rI - rJ), -1)
+
+
+def constraint_values(ct: ConstraintTopology, screw_lead, mr, mR, p, t):
+    """Φ(q, t) from marker positions ``mr`` (nm, 3), frames ``mR`` (nm, 3, 3) and body p (nb, 4)."""
+    parts = []
+    R9 = mR.reshape(mR.shape[0], 9)
+    if ct.sph_i.shape[0]:
+        d = ct.sph_j @ mr - ct.sph_i @ mr
+        parts.append(jnp.sum(d * ct.sph_k, -1))
+    if ct.d1_i.shape[0]:
+        RI = (ct.d1_i @ R9).reshape(-1, 3, 3)
+        RJ = (ct.d1_j @ R9).reshape(-1, 3, 3)
+        a = jnp.einsum("nij,nj->ni", RI, ct.d1_a)
+        b = jnp.einsum("nij,nj->ni", RJ, ct.d1_b)
+        parts.append(jnp.sum(a * b, -1))
+    if ct.d2_i.shape[0]:
+        RI = (ct.d2_i @ R9).reshape(-1, 3, 3)
+        a = jnp.einsum("nij,nj->ni", RI, ct.d2_a)
+        d = ct.d2_j @ mr - ct.d2_i @ mr
+        parts.append(jnp.sum(a * d, -1))
+    if ct.sc_i.shape[0]:
+        RI = (ct.sc_i @ R9).reshape(-1, 3, 3)
+        RJ = (ct.sc_j @ R9).reshape(-1, 3, 3)
+        th = joint_angle(RI, RJ)
+        z = joint_translation(ct.sc_i @ mr, ct.sc_j @ mr, RJ)
+        lead = screw_lead[ct.sc_param] / (2.0 * jnp.pi)
+        parts.append(z - lead * th)
+    if ct.drv_i.shape[0]:
+        RI = (ct.drv_i @ R9).reshape(-1, 3, 3)
+        RJ = (ct.drv_j @ R9).reshape(-1, 3, 3)
+        th = joint_angle(RI, RJ)
+        z = joint_translation(ct.drv_i @ mr, ct.drv_j @ mr, RJ)
+        f = jnp.stack([jnp.asarray(fn(t), dtype=mr.dtype) for fn in ct.drv_fn])
+        parts.append(jnp.where(ct.drv_rot, th, z) - f)
+    parts.append(jnp.sum(p * p, -1) - 1.0)
+    return jnp.concatenate(parts)

@@ -1,0 +1,276 @@
+"""Force-element groups: each kind of element is evaluated vectorised over its instances.
+
+A group turns model elements into parameter arrays (``params``) and static one-hot marker
+selections, and provides pure functions of the marker kinematics:
+
+- ``loads`` → per-marker force and torque accumulations (ground components),
+- ``potential`` (stored energy), ``dissipation`` (power ≥ 0 lost in dampers, friction),
+  ``input_power`` (power of external loads), ``outputs`` (named per-element arrays).
+
+Two-marker elements follow the Adams convention: force F and torque T act on I; −F and
+−T − δ × F act on J, with δ = r_I − r_J, so the pair carries no net force or moment.
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+
+from .constraints import _oh, joint_angle
+
+
+class AbstractGroup:
+    kind = ""
+    prefix = ""
+
+    def __init__(self, elements, marker_index: dict, nm: int):
+        self.elements = list(elements)
+        self.names = [e.name for e in self.elements]
+        self.nm = nm
+
+    def __len__(self):
+        return len(self.elements)
+
+    def params(self) -> dict:
+        return {}
+
+    def index(self, name: str) -> int:
+        return self.names.index(name)
+
+    # Defaults: no contribution.
+    def potential(self, P, mk, t, ctx):
+        return 0.0
+
+    def dissipation(self, P, mk, t, ctx):
+        return 0.0
+
+    def input_power(self, P, mk, t, ctx):
+        return 0.0
+
+
+def pair_loads(oh_i, oh_j, F, T, delta):
+    """Per-marker accumulations for action F, T on I and reaction on J (with moment arm)."""
+    Fm = oh_i.T @ F - oh_j.T @ F
+    Tm = oh_i.T @ T + oh_j.T @ (-T - jnp.cross(delta, F))
+    return Fm, Tm
+
+
+class TwoMarkerGroup(AbstractGroup):
+    def __init__(self, elements, marker_index, nm):
+        super().__init__(elements, marker_index, nm)
+        self.oh_i = _oh([marker_index[id(e.i)] for e in self.elements], nm)
+        self.oh_j = _oh([marker_index[id(e.j)] for e in self.elements], nm)
+
+    def _ends(self, mk):
+        rI, rJ = self.oh_i @ mk.r, self.oh_j @ mk.r
+        vI, vJ = self.oh_i @ mk.v, self.oh_j @ mk.v
+        return rI, rJ, vI, vJ
+
+
+class SpringDamperGroup(TwoMarkerGroup):
+    kind = "spring_damper"
+    prefix = "spring_damper"
+
+    def params(self):
+        e = self.elements
+        return {
+            "spring_damper_stiffness": np.array([x.stiffness for x in e]),
+            "spring_damper_damping": np.array([x.damping for x in e]),
+            "spring_damper_free_length": np.array([x.free_length for x in e]),
+            "spring_damper_preload": np.array([x.preload for x in e]),
+        }
+
+    def _law(self, P, mk):
+        rI, rJ, vI, vJ = self._ends(mk)
+        delta = rI - rJ
+        length = jnp.sqrt(jnp.sum(delta * delta, -1))
+        u = delta / length[:, None]
+        rate = jnp.sum(u * (vI - vJ), -1)
+        ext = length - P["spring_damper_free_length"]
+        f = -P["spring_damper_stiffness"] * ext - P["spring_damper_damping"] * rate + P["spring_damper_preload"]
+        return delta, length, rate, ext, u, f
+
+    def loads(self, P, mk, t, ctx):
+        delta, _, _, _, u, f = self._law(P, mk)
+        F = f[:, None] * u
+        return pair_loads(self.oh_i, self.oh_j, F, jnp.zeros_like(F), delta)
+
+    def potential(self, P, mk, t, ctx):
+        _, _, _, ext, _, _ = self._law(P, mk)
+        return jnp.sum(0.5 * P["spring_damper_stiffness"] * ext**2 - P["spring_damper_preload"] * ext)
+
+    def dissipation(self, P, mk, t, ctx):
+        _, _, rate, _, _, _ = self._law(P, mk)
+        return jnp.sum(P["spring_damper_damping"] * rate**2)
+
+    def outputs(self, P, mk, t, ctx):
+        delta, length, rate, ext, u, f = self._law(P, mk)
+        return {
+            "force": (f[:, None] * u, "N"),
+            "tension": (-f, "N"),
+            "length": (length, "m"),
+            "deformation": (ext, "m"),
+            "velocity": (rate, "m/s"),
+            "power": (-P["spring_damper_damping"] * rate**2, "W"),
+        }
+
+
+class RotationalSpringDamperGroup(TwoMarkerGroup):
+    kind = "rotational_spring_damper"
+
+    def params(self):
+        e = self.elements
+        return {
+            "rotational_spring_damper_stiffness": np.array([x.stiffness for x in e]),
+            "rotational_spring_damper_damping": np.array([x.damping for x in e]),
+            "rotational_spring_damper_free_angle": np.array([x.free_angle for x in e]),
+            "rotational_spring_damper_preload": np.array([x.preload for x in e]),
+        }
+
+    def _law(self, P, mk):
+        R9 = mk.R.reshape(-1, 9)
+        RI = (self.oh_i @ R9).reshape(-1, 3, 3)
+        RJ = (self.oh_j @ R9).reshape(-1, 3, 3)
+        z = RJ[:, :, 2]
+        th = joint_angle(RI, RJ)
+        rate = jnp.sum(z * (self.oh_i @ mk.w - self.oh_j @ mk.w), -1)
+        ext = th - P["rotational_spring_damper_free_angle"]
+        tq = (
+            -P["rotational_spring_damper_stiffness"] * ext
+            - P["rotational_spring_damper_damping"] * rate
+            + P["rotational_spring_damper_preload"]
+        )
+        return z, th, rate, ext, tq
+
+    def loads(self, P, mk, t, ctx):
+        z, _, _, _, tq = self._law(P, mk)
+        T = tq[:, None] * z
+        rI, rJ, _, _ = self._ends(mk)
+        return pair_loads(self.oh_i, self.oh_j, jnp.zeros_like(T), T, rI - rJ)
+
+    def potential(self, P, mk, t, ctx):
+        _, _, _, ext, _ = self._law(P, mk)
+        return jnp.sum(0.5 * P["rotational_spring_damper_stiffness"] * ext**2 - P["rotational_spring_damper_preload"] * ext)
+
+    def dissipation(self, P, mk, t, ctx):
+        _, _, rate, _, _ = self._law(P, mk)
+        return jnp.sum(P["rotational_spring_damper_damping"] * rate**2)
+
+    def outputs(self, P, mk, t, ctx):
+        z, th, rate, ext, tq = self._law(P, mk)
+        return {
+            "torque": (tq, "N m"),
+            "angle": (th, "rad"),
+            "deformation": (ext, "rad"),
+            "velocity": (rate, "rad/s"),
+            "power": (-P["rotational_spring_damper_damping"] * rate**2, "W"),
+        }
+
+
+def bushing_kinematics(RI, RJ, rI, rJ, vI, vJ, wI, wJ):
+    """Displacement [d; (a, b, c)] and velocity [ḋ; ω_rel] of I relative to J in J axes (note §3)."""
+    delta = rI - rJ
+    RJt = jnp.swapaxes(RJ, -1, -2)
+    d = jnp.einsum("nij,nj->ni", RJt, delta)
+    dd = jnp.einsum("nij,nj->ni", RJt, vI - vJ - jnp.cross(wJ, delta))
+    wrel = jnp.einsum("nij,nj->ni", RJt, wI - wJ)
+    xI, zI = RI[:, :, 0], RI[:, :, 2]
+    xJ, yJ, zJ = RJ[:, :, 0], RJ[:, :, 1], RJ[:, :, 2]
+    zz = jnp.sum(zI * zJ, -1)
+    a = jnp.arctan2(-jnp.sum(zI * yJ, -1), zz)
+    b = jnp.arctan2(jnp.sum(zI * xJ, -1), zz)
+    c = jnp.arctan2(jnp.sum(xI * yJ, -1), jnp.sum(xI * xJ, -1))
+    x = jnp.concatenate([d, jnp.stack([a, b, c], -1)], -1)
+    xd = jnp.concatenate([dd, wrel], -1)
+    return delta, x, xd
+
+
+class BushingGroup(TwoMarkerGroup):
+    kind = "bushing"
+
+    def params(self):
+        e = self.elements
+        return {
+            "bushing_stiffness": np.array([x.stiffness for x in e]).reshape(-1, 6, 6),
+            "bushing_damping": np.array([x.damping for x in e]).reshape(-1, 6, 6),
+            "bushing_preload": np.array([x.preload for x in e]).reshape(-1, 6),
+            "bushing_free": np.array([x.free for x in e]).reshape(-1, 6),
+        }
+
+    def _law(self, P, mk):
+        R9 = mk.R.reshape(-1, 9)
+        RI = (self.oh_i @ R9).reshape(-1, 3, 3)
+        RJ = (self.oh_j @ R9).reshape(-1, 3, 3)
+        rI, rJ, vI, vJ = self._ends(mk)
+        delta, x, xd = bushing_kinematics(RI, RJ, rI, rJ, vI, vJ, self.oh_i @ mk.w, self.oh_j @ mk.w)
+        xe = x - P["bushing_free"]
+        fe = -jnp.einsum("nij,nj->ni", P["bushing_stiffness"], xe)
+        fd = -jnp.einsum("nij,nj->ni", P["bushing_damping"], xd)
+        f = fe + fd + P["bushing_preload"]
+        return RJ, delta, x, xd, xe, f, fd
+
+    def loads(self, P, mk, t, ctx):
+        RJ, delta, _, _, _, f, _ = self._law(P, mk)
+        F = jnp.einsum("nij,nj->ni", RJ, f[:, :3])
+        T = jnp.einsum("nij,nj->ni", RJ, f[:, 3:])
+        return pair_loads(self.oh_i, self.oh_j, F, T, delta)
+
+    def potential(self, P, mk, t, ctx):
+        _, _, _, _, xe, _, _ = self._law(P, mk)
+        return jnp.sum(0.5 * jnp.einsum("ni,nij,nj->n", xe, P["bushing_stiffness"], xe) - jnp.sum(P["bushing_preload"] * xe, -1))
+
+    def dissipation(self, P, mk, t, ctx):
+        _, _, _, xd, _, _, fd = self._law(P, mk)
+        return -jnp.sum(fd * xd)
+
+    def outputs(self, P, mk, t, ctx):
+        RJ, _, x, xd, _, f, fd = self._law(P, mk)
+        return {
+            "force": (jnp.einsum("nij,nj->ni", RJ, f[:, :3]), "N"),
+            "torque": (jnp.einsum("nij,nj->ni", RJ, f[:, 3:]), "N m"),
+            "force_local": (f[:, :3], "N"),
+            "torque_local": (f[:, 3:], "N m"),
+            "deformation": (x[:, :3], "m"),
+            "rotation": (x[:, 3:], "rad"),
+            "power": (jnp.sum(fd * xd, -1), "W"),
+        }
+
+
+class PartLoadGroup(AbstractGroup):
+    """User forces (kind 'force') or torques ('torque') on parts: constants or f(t) / f(t, state)."""
+
+    def __init__(self, elements, marker_index, nm, kind):
+        super().__init__(elements, marker_index, nm)
+        self.kind = kind
+        self.oh = _oh([marker_index[id(e.marker)] for e in self.elements], nm)
+        self.const = np.array([e.fn is None for e in self.elements], bool)
+
+    def params(self):
+        vals = np.array([e.value if e.fn is None else np.zeros(3) for e in self.elements]).reshape(-1, 3)
+        return {f"{self.kind}_value": vals}
+
+    def _values(self, P, t, ctx):
+        rows = []
+        for k, e in enumerate(self.elements):
+            if e.fn is None:
+                rows.append(P[f"{self.kind}_value"][k])
+            else:
+                out = e.fn(t) if e.arity <= 1 else e.fn(t, ctx)
+                rows.append(jnp.broadcast_to(jnp.asarray(out, dtype=jnp.float64), (3,)))
+        return jnp.stack(rows)
+
+    def loads(self, P, mk, t, ctx):
+        val = self._values(P, t, ctx)
+        if self.kind == "force":
+            return self.oh.T @ val, jnp.zeros((self.nm, 3))
+        return jnp.zeros((self.nm, 3)), self.oh.T @ val
+
+    def input_power(self, P, mk, t, ctx):
+        val = self._values(P, t, ctx)
+        vel = self.oh @ (mk.v if self.kind == "force" else mk.w)
+        return jnp.sum(val * vel)
+
+    def outputs(self, P, mk, t, ctx):
+        val = self._values(P, t, ctx)
+        vel = self.oh @ (mk.v if self.kind == "force" else mk.w)
+        return {self.kind: (val, "N" if self.kind == "force" else "N m"), "power": (jnp.sum(val * vel, -1), "W")}

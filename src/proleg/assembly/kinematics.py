@@ -1,0 +1,65 @@
+"""Body and marker kinematics from the absolute coordinates (formulation note §0-§1).
+
+Arrays are struct-of-arrays over bodies; row ``nbody`` is ground (r = 0, A = I). Marker
+quantities are gathered with constant one-hot matrices (small matmuls are faster than XLA
+gathers on CPU inside Newton loops).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax.numpy as jnp
+
+from ..spatial.rotation import A_of_p, G_of_p, L_of_p
+
+
+class BodyKin(NamedTuple):
+    r: jnp.ndarray  # (nb+1, 3) COM position, ground row last
+    p: jnp.ndarray  # (nb+1, 4)
+    A: jnp.ndarray  # (nb+1, 3, 3)
+    rd: jnp.ndarray  # (nb+1, 3) COM velocity
+    w: jnp.ndarray  # (nb+1, 3) angular velocity, ground components
+
+
+class MarkerKin(NamedTuple):
+    r: jnp.ndarray  # (nm, 3) origin, ground
+    R: jnp.ndarray  # (nm, 3, 3) axes (columns x, y, z), ground
+    v: jnp.ndarray  # (nm, 3) origin velocity, ground
+    w: jnp.ndarray  # (nm, 3) angular velocity, ground
+    Ab: jnp.ndarray  # (nm, 3, 3) rotation of the marker's body
+    s: jnp.ndarray  # (nm, 3) marker origin relative to body COM, ground components
+
+
+_GROUND_P = jnp.array([1.0, 0.0, 0.0, 0.0])
+
+
+def body_kin(nbody: int, q, v=None) -> BodyKin:
+    qb = q.reshape(nbody, 7)
+    r = jnp.concatenate([qb[:, :3], jnp.zeros((1, 3), q.dtype)], 0)
+    p = jnp.concatenate([qb[:, 3:], _GROUND_P[None, :].astype(q.dtype)], 0)
+    A = A_of_p(p)
+    if v is None:
+        rd = jnp.zeros_like(r)
+        w = jnp.zeros_like(r)
+    else:
+        vb = v.reshape(nbody, 7)
+        rd = jnp.concatenate([vb[:, :3], jnp.zeros((1, 3), v.dtype)], 0)
+        pd = jnp.concatenate([vb[:, 3:], jnp.zeros((1, 4), v.dtype)], 0)
+        w = 2.0 * jnp.einsum("bij,bj->bi", G_of_p(p), pd)
+    return BodyKin(r, p, A, rd, w)
+
+
+def marker_kin(onehot, marker_s, marker_C, bk: BodyKin) -> MarkerKin:
+    """Marker frames; ``onehot`` is the constant (nm, nb+1) marker→body matrix."""
+    Ab = jnp.einsum("mb,bij->mij", onehot, bk.A)
+    s = jnp.einsum("mij,mj->mi", Ab, marker_s)
+    r = onehot @ bk.r + s
+    R = Ab @ marker_C
+    w = onehot @ bk.w
+    v = onehot @ bk.rd + jnp.cross(w, s)
+    return MarkerKin(r, R, v, w, Ab, s)
+
+
+def body_L(p):
+    return L_of_p(p)

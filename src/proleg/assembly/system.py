@@ -1,0 +1,456 @@
+"""Model → System: a frozen pytree of parameters (JAX arrays) plus static topology.
+
+``assemble(model)`` is the only door into JAX. Everything inconsistent is raised here, in plain
+Python. The resulting :class:`System` is a pytree whose leaves are the numeric parameters
+(masses, inertias, marker geometry, stiffnesses, ...): replace them with
+``system.with_params(...)`` without recompiling, ``jax.vmap`` over them, differentiate them.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..errors import ModelError
+from ..model.forces import Bushing, Force, RotationalSpringDamper, SpringDamper, Torque
+from ..model.model import Model
+from ..spatial.rotation import G_of_p, L_of_p, p_from_matrix
+from .constraints import ConstraintTopology, build_constraint_topology, constraint_values
+from .elements import BushingGroup, PartLoadGroup, RotationalSpringDamperGroup, SpringDamperGroup
+from .kinematics import body_kin, marker_kin
+
+
+@dataclass(eq=False)
+class Topology:
+    """Static (hashed by identity) part of a System: names, counts, index maps, callables."""
+
+    name: str
+    body_names: list
+    marker_names: list
+    marker_body: np.ndarray  # (nm,) body index; nbody = ground
+    marker_oh: np.ndarray  # (nm, nb+1)
+    joints: list  # model joint objects (kept for names, kinds and marker indices)
+    joint_marker_i: np.ndarray
+    joint_marker_j: np.ndarray
+    ct: ConstraintTopology = None
+    groups: list = field(default_factory=list)
+    dropped: list = field(default_factory=list)  # (joint name, equation label) of removed redundant rows
+    extensions: list = field(default_factory=list)  # contact/actuator/controller groups (later issues)
+    model: Model = None
+
+    @property
+    def nbody(self) -> int:
+        return len(self.body_names)
+
+    @property
+    def nq(self) -> int:
+        return 7 * self.nbody
+
+    @property
+    def nc(self) -> int:
+        return self.ct.n_rows
+
+    def group(self, kind):
+        for g in self.groups:
+            if g.kind == kind:
+                return g
+        return None
+
+
+@jax.tree_util.register_pytree_node_class
+class System:
+    """Assembled model: ``params`` (dict of arrays, the pytree leaves) and ``topo`` (static)."""
+
+    def __init__(self, params: dict, topo: Topology):
+        self.params = params
+        self.topo = topo
+
+    def tree_flatten(self):
+        return (self.params,), self.topo
+
+    @classmethod
+    def tree_unflatten(cls, topo, children):
+        return cls(children[0], topo)
+
+    # -- parameters -------------------------------------------------------------------------
+    def param_names(self) -> list[str]:
+        """Names accepted by :meth:`with_params`: array names and ``element.field`` names."""
+        out = sorted(self.params)
+        out += [f"{n}.mass" for n in self.topo.body_names] + [f"{n}.inertia" for n in self.topo.body_names]
+        for g in self.topo.groups + self.topo.extensions:
+            for n in g.names:
+                out += [f"{n}.{k[len(g.kind) + 1:]}" for k in g.params()]
+        return out
+
+    def _locate(self, key: str):
+        if key in self.params:
+            return key, None
+        if "." not in key:
+            raise ModelError(f"Unknown parameter '{key}'. Valid names: {self.param_names()}")
+        elem, fld = key.rsplit(".", 1)
+        if elem in self.topo.body_names and fld in ("mass", "inertia"):
+            return f"body_{fld}", self.topo.body_names.index(elem)
+        for g in self.topo.groups + self.topo.extensions:
+            if elem in g.names and f"{g.kind}_{fld}" in self.params:
+                return f"{g.kind}_{fld}", g.names.index(elem)
+        raise ModelError(f"Unknown parameter '{key}'. Valid names: {self.param_names()}")
+
+    def with_params(self, updates: dict | None = None, **kw) -> System:
+        """A copy with some parameters replaced (traceable: use inside vmap/grad).
+
+        Keys are array names (``spring_damper_stiffness``, full array) or element fields
+        (``"spring.stiffness"``, ``"upper.mass"``, one element's value).
+        """
+        new = dict(self.params)
+        for key, val in {**(updates or {}), **kw}.items():
+            name, idx = self._locate(key)
+            val = jnp.asarray(val, dtype=jnp.float64)
+            if idx is None:
+                if val.shape != new[name].shape:
+                    raise ModelError(f"Parameter '{key}' has shape {new[name].shape}; got {val.shape}.")
+                new[name] = val
+            else:
+                new[name] = new[name].at[idx].set(val)
+        return System(new, self.topo)
+
+    def get(self, key: str):
+        name, idx = self._locate(key)
+        return self.params[name] if idx is None else self.params[name][idx]
+
+    # -- sizes -----------------------------------------------------------------------------
+    @property
+    def nq(self):
+        return self.topo.nq
+
+    @property
+    def nc(self):
+        return self.topo.nc
+
+    def __repr__(self):
+        return f"System({self.topo.name!r}: nq={self.nq}, nc={self.nc})"
+
+
+# ---------------------------------------------------------------------------------------------
+# Pure physics functions
+# ---------------------------------------------------------------------------------------------
+class StateView:
+    """What user force/torque/motion functions see: ``state.position('upper')`` etc. (traceable)."""
+
+    def __init__(self, topo: Topology, bk, mk, t, z=None):
+        self._topo, self._bk, self._mk, self.t, self.z = topo, bk, mk, t, z
+
+    def _b(self, part):
+        name = getattr(part, "name", part)
+        if name == "ground":
+            return self._topo.nbody
+        try:
+            return self._topo.body_names.index(name)
+        except ValueError:
+            raise ModelError(f"State access: no part named '{name}'.") from None
+
+    def _m(self, marker):
+        name = getattr(marker, "name", marker)
+        try:
+            return self._topo.marker_names.index(name)
+        except ValueError:
+            raise ModelError(f"State access: no marker named '{name}'.") from None
+
+    def position(self, part):
+        return self._bk.r[self._b(part)]
+
+    def velocity(self, part):
+        return self._bk.rd[self._b(part)]
+
+    def orientation(self, part):
+        return self._bk.A[self._b(part)]
+
+    def angular_velocity(self, part):
+        return self._bk.w[self._b(part)]
+
+    def marker_position(self, marker):
+        return self._mk.r[self._m(marker)]
+
+    def marker_velocity(self, marker):
+        return self._mk.v[self._m(marker)]
+
+    def marker_orientation(self, marker):
+        return self._mk.R[self._m(marker)]
+
+
+def kinematics(system: System, q, v=None):
+    topo, P = system.topo, system.params
+    bk = body_kin(topo.nbody, q, v)
+    mk = marker_kin(topo.marker_oh, P["marker_s"], P["marker_C"], bk)
+    return bk, mk
+
+
+def constraints(system: System, q, t):
+    """Φ(q, t) of the kept rows (joints, motions, then Euler-parameter normalization)."""
+    topo, P = system.topo, system.params
+    bk, mk = kinematics(system, q)
+    return constraint_values(topo.ct, P.get("screw_lead", jnp.zeros(0)), mk.r, mk.R, bk.p[:-1], t)
+
+
+def mass_action(system: System, q, qdd):
+    """M(q) q̈ per body: [m r̈; 4 LᵀJ'L p̈] as an (nq,) vector."""
+    P = system.params
+    nb = system.topo.nbody
+    qb, ab = q.reshape(nb, 7), qdd.reshape(nb, 7)
+    p = qb[:, 3:]
+    L = L_of_p(p)
+    Jp = jnp.einsum("bij,bjk,bk->bi", P["body_inertia"], L, ab[:, 3:])
+    return jnp.concatenate([P["body_mass"][:, None] * ab[:, :3], 4.0 * jnp.einsum("bji,bj->bi", L, Jp)], 1).reshape(-1)
+
+
+def element_loads(system: System, bk, mk, t, z=None):
+    """Per-marker force and torque accumulations (ground) from all force elements."""
+    topo, P = system.topo, system.params
+    ctx = StateView(topo, bk, mk, t, z)
+    nm = len(topo.marker_names)
+    Fm = jnp.zeros((nm, 3))
+    Tm = jnp.zeros((nm, 3))
+    for g in topo.groups + topo.extensions:
+        if len(g) and hasattr(g, "loads"):
+            F, T = g.loads(P, mk, t, ctx)
+            Fm, Tm = Fm + F, Tm + T
+    return Fm, Tm
+
+
+def generalized_forces(system: System, q, v, t, z=None):
+    """Q(q, v, t): applied loads, gravity and the quadratic-velocity term, (nq,)."""
+    topo, P = system.topo, system.params
+    nb = topo.nbody
+    bk, mk = kinematics(system, q, v)
+    Fm, Tm = element_loads(system, bk, mk, t, z)
+    # Marker loads → generalized forces: Q_r += F, Q_p += 2 Lᵀ (Aᵀ T + s' × Aᵀ F).
+    AtF = jnp.einsum("mji,mj->mi", mk.Ab, Fm)
+    AtT = jnp.einsum("mji,mj->mi", mk.Ab, Tm)
+    n_local = AtT + jnp.cross(P["marker_s"], AtF)
+    Fb = (topo.marker_oh.T @ Fm)[:nb]
+    Nb = (topo.marker_oh.T @ n_local)[:nb]
+    p = bk.p[:nb]
+    L = L_of_p(p)
+    pd = v.reshape(nb, 7)[:, 3:]
+    wl = 2.0 * jnp.einsum("bij,bj->bi", L, pd)  # body-frame angular velocity
+    Jw = jnp.einsum("bij,bj->bi", P["body_inertia"], wl)
+    Nb = Nb - jnp.cross(wl, Jw)
+    Qr = Fb + P["body_mass"][:, None] * P["gravity"]
+    Qp = 2.0 * jnp.einsum("bji,bj->bi", L, Nb)
+    return jnp.concatenate([Qr, Qp], 1).reshape(-1)
+
+
+def kinetic_energy(system: System, q, v):
+    P = system.params
+    nb = system.topo.nbody
+    vb, qb = v.reshape(nb, 7), q.reshape(nb, 7)
+    wl = 2.0 * jnp.einsum("bij,bj->bi", L_of_p(qb[:, 3:]), vb[:, 3:])
+    return 0.5 * jnp.sum(P["body_mass"] * jnp.sum(vb[:, :3] ** 2, -1)) + 0.5 * jnp.sum(
+        jnp.einsum("bi,bij,bj->b", wl, P["body_inertia"], wl)
+    )
+
+
+def potential_energy(system: System, q, t=0.0, z=None):
+    topo, P = system.topo, system.params
+    bk, mk = kinematics(system, q)
+    ctx = StateView(topo, bk, mk, t, z)
+    vg = -jnp.sum(P["body_mass"] * (bk.r[:-1] @ P["gravity"]))
+    return vg + sum(g.potential(P, mk, t, ctx) for g in topo.groups + topo.extensions if len(g))
+
+
+def power_terms(system: System, q, v, t, z=None):
+    """(dissipated power ≥ 0, input power of external loads) [W]."""
+    topo, P = system.topo, system.params
+    bk, mk = kinematics(system, q, v)
+    ctx = StateView(topo, bk, mk, t, z)
+    gs = [g for g in topo.groups + topo.extensions if len(g)]
+    d = sum((g.dissipation(P, mk, t, ctx) for g in gs), jnp.zeros(()))
+    w = sum((g.input_power(P, mk, t, ctx) for g in gs), jnp.zeros(()))
+    return jnp.stack([d, w])
+
+
+def constraint_jacobian(system: System, q, t):
+    return jax.jacfwd(lambda qq: constraints(system, qq, t))(q)
+
+
+def initial_coordinates(model: Model):
+    q, v = [], []
+    for part in model.parts:
+        p = p_from_matrix(part.orientation)
+        pd = 0.5 * np.asarray(G_of_p(jnp.asarray(p))).T @ part.angular_velocity
+        q.append(np.concatenate([part.position, p]))
+        v.append(np.concatenate([part.velocity, pd]))
+    return np.concatenate(q), np.concatenate(v)
+
+
+# ---------------------------------------------------------------------------------------------
+# assemble
+# ---------------------------------------------------------------------------------------------
+GROUP_BUILDERS = [
+    (SpringDamper, SpringDamperGroup),
+    (RotationalSpringDamper, RotationalSpringDamperGroup),
+    (Bushing, BushingGroup),
+]
+EXTENSION_HOOKS: list = []  # callables(model, topo, marker_index, params) → list of groups (issues 3+)
+
+
+def _joint_rows(model: Model, marker_index, owners):
+    rows = []
+    screw_leads = []
+    for oi, j in enumerate(owners):
+        mi, mj = marker_index[id(j.marker_i)], marker_index[id(j.marker_j)]
+        for eq in j.equations:
+            kind = eq[0]
+            if kind == "sph":
+                rows.append(dict(kind="sph", mi=mi, mj=mj, args=(eq[1],), owner=oi, label=f"d{'xyz'[eq[1]]}"))
+            elif kind == "dot1":
+                rows.append(
+                    dict(kind="dot1", mi=mi, mj=mj, args=(eq[1], eq[2]), owner=oi, label=f"{'xyz'[eq[1]]}_I.{'xyz'[eq[2]]}_J")
+                )
+            elif kind == "dot2":
+                rows.append(dict(kind="dot2", mi=mi, mj=mj, args=(eq[1],), owner=oi, label=f"{'xyz'[eq[1]]}_I.d"))
+            elif kind == "screw":
+                rows.append(dict(kind="screw", mi=mi, mj=mj, args=(len(screw_leads),), owner=oi, label="screw"))
+                screw_leads.append(j.pitch)
+            elif kind == "drv":
+                rows.append(dict(kind="drv", mi=mi, mj=mj, args=(eq[1], eq[2]), owner=oi, label=eq[3]))
+    return rows, np.array(screw_leads, float)
+
+
+def find_redundant_rows(Phi_q: np.ndarray, nbody: int, scale: np.ndarray | None = None, tol: float = 1e-9):
+    """Indices of independent joint rows (model order) and of dropped ones (formulation note §6).
+
+    ``Phi_q`` has the joint rows first and the ``nbody`` normalization rows last; the latter
+    are always kept. Rank-revealing QR with column pivoting on the joint rows projected onto
+    the complement of the normalization rows.
+    """
+    import scipy.linalg
+
+    nj = Phi_q.shape[0] - nbody
+    if nj == 0:
+        return np.arange(0), np.arange(0)
+    Pj = Phi_q[:nj].copy()
+    if scale is not None:
+        Pj = Pj * scale[None, :]
+    N = Phi_q[nj:]
+    if nbody:
+        Qn, _ = np.linalg.qr(N.T)
+        Pj = Pj - (Pj @ Qn) @ Qn.T
+    _, R, piv = scipy.linalg.qr(Pj.T, pivoting=True, mode="economic")
+    diag = np.abs(np.diag(R))
+    if diag.size == 0 or diag[0] == 0:
+        return np.arange(0), np.arange(nj)
+    rank = int(np.sum(diag > tol * diag[0]))
+    keep = np.sort(piv[:rank])
+    drop = np.sort(piv[rank:])
+    return keep, drop
+
+
+def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
+    """Build the System of ``model``: checks, parameter arrays, constraint rows, redundancy removal.
+
+    Raises
+    ------
+    ModelError
+        For anything inconsistent (no parts, unknown elements, a part connected to nothing, ...).
+    """
+    if not isinstance(model, Model):
+        raise ModelError(f"assemble expects a proleg.Model, got {type(model).__name__}.")
+    if not model.parts:
+        raise ModelError(f"Model '{model.name}' has no parts. Add parts with model.add_part.")
+    body_index = {id(p): k for k, p in enumerate(model.parts)}
+    nb = len(model.parts)
+    body_index[id(model.ground)] = nb
+    markers = list(model.markers)
+    marker_index = {id(m): k for k, m in enumerate(markers)}
+    nm = len(markers)
+    marker_body = np.array([body_index[id(m.part)] for m in markers], int)
+    marker_oh = np.zeros((nm, nb + 1))
+    marker_oh[np.arange(nm), marker_body] = 1.0
+
+    params = {
+        "gravity": np.asarray(model.gravity, float),
+        "body_mass": np.array([p.mass for p in model.parts]),
+        "body_inertia": np.array([p.inertia for p in model.parts]),
+        "marker_s": np.array([m.local_position for m in markers]).reshape(nm, 3),
+        "marker_C": np.array([m.local_orientation for m in markers]).reshape(nm, 3, 3),
+    }
+    q0, v0 = initial_coordinates(model)
+    params["q_init"], params["v_init"] = q0, v0
+
+    groups = []
+    for cls, gcls in GROUP_BUILDERS:
+        elems = [f for f in model.forces if type(f) is cls or isinstance(f, cls)]
+        groups.append(gcls(elems, marker_index, nm))
+    for kind, cls in (("force", Force), ("torque", Torque)):
+        groups.append(PartLoadGroup([f for f in model.forces if isinstance(f, cls)], marker_index, nm, kind))
+    for g in groups:
+        if len(g):
+            params.update(g.params())
+
+    topo = Topology(
+        name=model.name,
+        body_names=[p.name for p in model.parts],
+        marker_names=[m.name for m in markers],
+        marker_body=marker_body,
+        marker_oh=marker_oh,
+        joints=list(model.joints),
+        joint_marker_i=np.array([marker_index[id(j.marker_i)] for j in model.joints], int),
+        joint_marker_j=np.array([marker_index[id(j.marker_j)] for j in model.joints], int),
+        groups=groups,
+        model=model,
+    )
+    extensions = []
+    for hook in EXTENSION_HOOKS:
+        extensions += hook(model, topo, marker_index, params)
+    topo.extensions = extensions
+    owners = list(model.joints) + list(getattr(model, "_constraint_owners_extra", lambda: [])())
+    rows, leads = _joint_rows(model, marker_index, owners)
+    params["screw_lead"] = leads
+
+    # Redundancy: full row set at the modelled pose, then keep independent rows.
+    ct_full = build_constraint_topology(rows, nm, nb, owners)
+    topo.ct = ct_full
+    sys_full = System({k: jnp.asarray(v, dtype=jnp.float64) for k, v in params.items()}, topo)
+    Phi_q = np.asarray(constraint_jacobian(sys_full, jnp.asarray(q0), 0.0))
+    if not np.all(np.isfinite(Phi_q)):
+        raise ModelError(f"Model '{model.name}': the constraint Jacobian is not finite at the modelled pose.")
+    ordered = [r for k in ("sph", "dot1", "dot2", "screw", "drv") for r in rows if r["kind"] == k]
+    keep, drop = find_redundant_rows(Phi_q, nb, tol=redundancy_tol)
+    dropped = [(owners[ordered[i]["owner"]].name, ordered[i]["label"]) for i in drop]
+    if dropped:
+        warnings.warn(
+            f"Model '{model.name}': {len(dropped)} redundant constraint equation(s) removed: "
+            + ", ".join(f"{j} ({lab})" for j, lab in dropped)
+            + ". Their reactions are statically indeterminate (reported as 0); replace joints by "
+            "lower-equation joints or bushings if the split matters.",
+            stacklevel=2,
+        )
+        kept_rows = [ordered[i] for i in keep]
+        topo.ct = build_constraint_topology(kept_rows, nm, nb, owners)
+    topo.dropped = dropped
+    system = System({k: jnp.asarray(v, dtype=jnp.float64) for k, v in params.items()}, topo)
+    return system
+
+
+def dof_report(system: System) -> dict:
+    """Degrees of freedom by Gruebler count and by constraint-Jacobian rank, and redundant rows."""
+    topo = system.topo
+    n_eq = sum(j.n_equations for j in topo.joints) + sum(len(getattr(m, "equations", [])) for m in topo.ct.owners[len(topo.joints):])
+    q0 = system.params["q_init"]
+    Phi_q = np.asarray(constraint_jacobian(system, q0, 0.0))
+    rank = np.linalg.matrix_rank(Phi_q, tol=1e-9 * max(1.0, np.abs(Phi_q).max()))
+    return {
+        "parts": topo.nbody,
+        "gruebler": 6 * topo.nbody - n_eq,
+        "rank": 7 * topo.nbody - int(rank),
+        "redundant": list(topo.dropped),
+    }
+
+
+def kinematic_energy_terms(system: System, q, v, t=0.0, z=None):
+    """(kinetic, potential) energy [J]."""
+    return kinetic_energy(system, q, v), potential_energy(system, q, t, z)

@@ -1,0 +1,112 @@
+"""Adaptive (or fixed-step) time stepping over a chunk of output times, as one compiled loop.
+
+The loop is a ``lax.while_loop`` that chooses between accept and reject (note §4, §7): the
+step is a pure function of (state, h), so a rejection simply retries from the same state with
+a smaller h. Steps are clipped to output times and to controller sample times, so outputs are
+exact solver states, and controllers see zero-order-held inputs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import partial
+
+import jax
+import jax.numpy as jnp
+
+from ..errors import Status
+from .galpha import StepOptions, StepState, step
+
+
+@dataclass(frozen=True)
+class DriverOptions:
+    step: StepOptions = StepOptions()
+    dt_min: float = 1e-10
+    dt_max: float = 1e-2
+    fixed_step: float | None = None
+    max_steps: int = 2_000_000  # per chunk
+    sample_period: float | None = None  # controller clock [s]
+
+
+def _sample_update(system, st: StepState):
+    """Controller sample: z ← update(t, q, v, z) for every discrete element (issue 3 hook)."""
+    z = st.z
+    for g in system.topo.extensions:
+        if hasattr(g, "sample"):
+            z = g.sample(system.params, st.t, st.q, st.v, z, system)
+    return st._replace(z=z)
+
+
+@partial(jax.jit, static_argnums=(1, 2))
+def advance(system, integrator, dopts: DriverOptions, st: StepState, h, out_times, n_valid):
+    """Integrate from ``st`` through ``out_times[:n_valid]``; record q, v, w, z at each.
+
+    Returns (state, h, buffers, stats, status, fail_time, worst_row).
+    """
+    K = out_times.shape[0]
+    nq = st.q.shape[0]
+    nz = st.z.shape[0]
+    Qb = jnp.zeros((K, nq))
+    Vb = jnp.zeros((K, nq))
+    Wb = jnp.zeros((K, 2))
+    Zb = jnp.zeros((K, nz))
+    fixed = dopts.fixed_step is not None
+    Ts = dopts.sample_period
+    eps_t = 1e-12
+
+    def next_event(t, k):
+        te = out_times[jnp.minimum(k, K - 1)]
+        if Ts is not None:
+            ts = (jnp.floor(t / Ts + 1e-9) + 1.0) * Ts
+            te = jnp.minimum(te, ts)
+        return te
+
+    def cond(c):
+        st, h, k, bufs, stats, status, ft, worst, rejected = c
+        return (k < n_valid) & (status == 0)
+
+    def body(c):
+        st, h, k, (Qb, Vb, Wb, Zb), (ns, nr, nn), status, ft, worst, rejected = c
+        te = next_event(st.t, k)
+        rem = te - st.t
+        h_des = jnp.asarray(dopts.fixed_step) if fixed else h
+        h_take = jnp.where(h_des >= rem * (1 - 1e-9), rem, jnp.where(2 * h_des > rem, 0.5 * rem, h_des))
+        clipped = h_take < h_des
+        new, err, iters, conv, wrow = step(system, integrator, st, h_take, dopts.step)
+        if fixed:
+            accept = conv
+            h_next = h
+        else:
+            accept = conv & (err <= 1.0)
+            fmax = jnp.where(rejected, 1.0, 2.0)
+            fac = jnp.clip(0.9 * jnp.maximum(err, 1e-10) ** (-1.0 / 3.0), 0.2, fmax)
+            h_acc = jnp.where(clipped, jnp.maximum(h_take * fac, h), h_take * fac)
+            h_rej = jnp.where(conv, h_take * jnp.minimum(fac, 1.0), 0.25 * h_take)
+            # The step sequence is not differentiated (derivatives are those of the discrete map).
+            h_next = jax.lax.stop_gradient(jnp.clip(jnp.where(accept, h_acc, h_rej), 0.0, dopts.dt_max))
+        st2 = jax.tree_util.tree_map(lambda a, b: jnp.where(accept, a, b), new, st)
+        # Controller sample at its clock ticks.
+        if Ts is not None:
+            at_tick = accept & (jnp.abs(st2.t / Ts - jnp.round(st2.t / Ts)) < 1e-9 * jnp.maximum(1.0, st2.t / Ts))
+            st2 = jax.lax.cond(at_tick, lambda s: _sample_update(system, s), lambda s: s, st2)
+        hit = accept & (jnp.abs(st2.t - out_times[jnp.minimum(k, K - 1)]) <= eps_t * jnp.maximum(1.0, jnp.abs(st2.t)))
+        kk = jnp.minimum(k, K - 1)
+        Qb = Qb.at[kk].set(jnp.where(hit, st2.q, Qb[kk]))
+        Vb = Vb.at[kk].set(jnp.where(hit, st2.v, Vb[kk]))
+        Wb = Wb.at[kk].set(jnp.where(hit, st2.w, Wb[kk]))
+        Zb = Zb.at[kk].set(jnp.where(hit, st2.z, Zb[kk]))
+        k = k + hit.astype(k.dtype)
+        too_small = (~accept) & (h_next < dopts.dt_min) if not fixed else ~accept
+        new_status = jnp.where(
+            too_small, jnp.where(conv, int(Status.STEP_TOO_SMALL), int(Status.NEWTON_FAILED)), status
+        )
+        new_status = jnp.where(ns + nr >= dopts.max_steps, int(Status.MAX_STEPS), new_status)
+        ft = jnp.where(too_small, st.t + h_take, ft)
+        worst = jnp.where(too_small, wrow, worst)
+        stats = (ns + accept.astype(ns.dtype), nr + (~accept).astype(nr.dtype), nn + iters)
+        return st2, jnp.maximum(h_next, dopts.dt_min * 0.5), k, (Qb, Vb, Wb, Zb), stats, new_status, ft, worst, ~accept
+
+    z0 = jnp.array(0)
+    init = (st, jnp.asarray(h, jnp.float64), z0, (Qb, Vb, Wb, Zb), (z0, z0, z0), jnp.array(0), st.t * 0.0, z0, jnp.array(False))
+    st, h, k, bufs, stats, status, ft, worst, _ = jax.lax.while_loop(cond, body, init)
+    return st, h, k, bufs, stats, status, ft, worst
