@@ -34,3 +34,7 @@ from .solvers.galpha import HHT as HHT
 from .solvers.galpha import GeneralizedAlpha as GeneralizedAlpha
 from .analyses.simulate import simulate as simulate
 from .analyses.result import Result as Result
+from .analyses.equilibrium import Equilibrium as Equilibrium
+from .analyses.equilibrium import solve_equilibrium as solve_equilibrium
+from .analyses.linearize import LinearModel as LinearModel
+from .analyses.linearize import linearize as linearize

@@ -1,1 +1,31 @@
-"""proleg.identify"""
+"""Classical identification from measurements (seed 000 Eqs. 4–7, seed 003 Eq. 9).
+
+Stiffness from the RMS line of force–stroke data, damping and Coulomb friction from hysteresis
+loops, damping from a drop test, the battery model, and statistics over repetitions with
+Student-t intervals. Files are read and checked by :mod:`proleg.identify.data`.
+"""
+
+from .classical import BatteryFit as BatteryFit
+from .classical import Cycle as Cycle
+from .classical import DropResult as DropResult
+from .classical import HysteresisResult as HysteresisResult
+from .classical import LineFit as LineFit
+from .classical import coulomb_fit as coulomb_fit
+from .classical import detect_cycles as detect_cycles
+from .classical import drop_damping as drop_damping
+from .classical import fit_battery as fit_battery
+from .classical import identify_hysteresis as identify_hysteresis
+from .classical import loop_energy as loop_energy
+from .classical import loops_table as loops_table
+from .classical import plot_battery as plot_battery
+from .classical import plot_hysteresis as plot_hysteresis
+from .classical import stiffness_rms as stiffness_rms
+from .data import Record as Record
+from .data import load_record as load_record
+from .data import parse_units as parse_units
+from .data import read_table as read_table
+from .data import split_runs as split_runs
+from .stats import Interval as Interval
+from .stats import mean_interval as mean_interval
+from .stats import repetition_check as repetition_check
+from .stats import repetitions_table as repetitions_table

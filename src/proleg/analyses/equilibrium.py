@@ -1,0 +1,211 @@
+"""Static equilibrium (Adams STATICS): Newton on Φ_qᵀλ − Q(q, 0, t) = 0, Φ(q, t) = 0."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..assembly.system import System, constraints, generalized_forces
+from ..errors import ConvergenceError, ModelError
+
+
+@dataclass
+class Equilibrium:
+    """A static equilibrium: coordinates ``q``, multipliers ``lam``, the final residual norms."""
+
+    system: System
+    q: np.ndarray
+    lam: np.ndarray
+    t: float
+    force_residual: float  # max |Φ_qᵀλ − Q| [N or N m]
+    constraint_residual: float  # max |Φ|
+    iterations: int
+
+    @property
+    def v(self):
+        return np.zeros_like(self.q)
+
+    def result(self):
+        """The equilibrium as a one-sample :class:`Result` (part poses, joint reactions, element forces)."""
+        from .result import Result
+
+        z = jnp.zeros((1, 0))
+        return Result(self.system, np.array([self.t]), jnp.asarray(self.q)[None], jnp.zeros((1, self.q.size)), jnp.zeros((1, 2)), z, stats=None, message="equilibrium")
+
+    def __repr__(self):
+        return f"Equilibrium({self.system.topo.name!r}: {self.iterations} iterations, |F| = {self.force_residual:.2e}, |Φ| = {self.constraint_residual:.2e})"
+
+
+def _residual(system, x, t, nq):
+    q, lam = x[:nq], x[nq:]
+    phi, vjp = jax.vjp(lambda qq: constraints(system, qq, t), q)
+    f = vjp(lam)[0] - generalized_forces(system, q, jnp.zeros_like(q), t)
+    return jnp.concatenate([f, phi])
+
+
+@jax.jit
+def _newton_pieces(system, x, t):
+    nq = system.topo.nq
+    r = _residual(system, x, t, nq)
+    J = jax.jacfwd(lambda xx: _residual(system, xx, t, nq))(x)
+    return r, J
+
+
+@jax.jit
+def _res(system, x, t):
+    return _residual(system, x, t, system.topo.nq)
+
+
+def check_connected(system: System):
+    """ModelError naming parts that neither a joint nor a force element connects to anything."""
+    topo = system.topo
+    connected = set()
+    for j in topo.joints:
+        connected.add(j.marker_i.part.name)
+        connected.add(j.marker_j.part.name)
+    for g in topo.groups + topo.extensions:
+        for e in g.elements:
+            for attr in ("i", "j", "marker"):
+                m = getattr(e, attr, None)
+                if m is not None and hasattr(m, "part"):
+                    connected.add(m.part.name)
+            if hasattr(e, "part_names"):
+                connected.update(e.part_names())
+    free = [n for n in topo.body_names if n not in connected]
+    if free:
+        raise ModelError(
+            f"Static equilibrium of '{topo.name}': part(s) {free} are connected to nothing (no joint, force "
+            "element or contact), so they have no static equilibrium. Connect them or remove them."
+        )
+
+
+@jax.jit
+def _tangent_pieces(system, q, t):
+    """Φ, Φ_q, generalized force Q(q, 0), and the stiffness ∂(Φ_qᵀλ − Q)/∂q with least-squares λ."""
+    Pq = jax.jacfwd(lambda qq: constraints(system, qq, t))(q)
+    Q = generalized_forces(system, q, jnp.zeros_like(q), t)
+    lam = jnp.linalg.lstsq(Pq.T, Q)[0]
+
+    def f(qq):
+        _, vjp = jax.vjp(lambda x: constraints(system, x, t), qq)
+        return vjp(lam)[0] - generalized_forces(system, qq, jnp.zeros_like(qq), t)
+
+    return constraints(system, q, t), Pq, Q, lam, jax.jacfwd(f)(q)
+
+
+def solve_equilibrium(
+    system: System, q_guess=None, t: float = 0.0, tol: float = 1e-10, max_iter: int = 200, stable: bool = True
+) -> Equilibrium:
+    """Static equilibrium from the modelled pose (or ``q_guess``).
+
+    With ``stable=True`` (default) a saddle-free Newton iteration in the constraint tangent space
+    (negative curvatures of the reduced stiffness flipped, steps capped) walks downhill to a
+    stable equilibrium, as a physical settle would; ``stable=False`` runs plain Newton on the
+    KKT equations, which converges to the nearest equilibrium, stable or not.
+
+    Raises ModelError if the model is not statically determinate (free rigid motion: the
+    stiffness restricted to the constraint tangent space is singular), naming the parts that move.
+    """
+    from .simulate import consistent_state
+
+    check_connected(system)
+    q0, _, _, lam0 = consistent_state(system, q_guess, None, t)
+    nq = system.topo.nq
+    t = jnp.asarray(t, jnp.float64)
+    scale = 1.0 + float(jnp.max(jnp.abs(system.params["body_mass"]))) * float(jnp.linalg.norm(system.params["gravity"]))
+    q = q0
+    it0 = 0
+    if stable:
+        q, it0 = _saddle_free(system, q, t, tol * scale, max_iter)
+        _, _, _, lam0, _ = _tangent_pieces(system, q, t)
+    x = jnp.concatenate([q, lam0])
+    r, J = _newton_pieces(system, x, t)
+    fr = float(jnp.max(jnp.abs(r[:nq])))
+    cr = float(jnp.max(jnp.abs(r[nq:])))
+    it = it0
+    for it in range(it0 + 1, it0 + max_iter + 1):
+        if fr < tol * scale and cr < tol and it > it0 + 1:
+            break
+        cond = np.linalg.cond(np.asarray(J))
+        if np.isfinite(cond) and cond < 1e12:
+            dx = jnp.linalg.solve(J, -r)
+        else:  # singular at this pose (e.g. a flat spring): least-squares step
+            dx = jnp.asarray(np.linalg.lstsq(np.asarray(J), -np.asarray(r), rcond=1e-12)[0])
+        n0 = float(jnp.linalg.norm(r))
+        alpha = 1.0
+        for _ in range(30):
+            x_try = x + alpha * dx
+            r_try = _res(system, x_try, t)
+            if bool(jnp.all(jnp.isfinite(r_try))) and float(jnp.linalg.norm(r_try)) < (1 - 1e-4 * alpha) * n0 + 1e-300:
+                break
+            alpha *= 0.5
+        x = x_try
+        r, J = _newton_pieces(system, x, t)
+        fr = float(jnp.max(jnp.abs(r[:nq])))
+        cr = float(jnp.max(jnp.abs(r[nq:])))
+    else:
+        cond = np.linalg.cond(np.asarray(J))
+        if not np.isfinite(cond) or cond > 1e15:
+            _explain_singular(system, np.asarray(J), nq)
+        raise ConvergenceError(
+            f"Static equilibrium of '{system.topo.name}' did not converge in {max_iter} iterations "
+            f"(force residual {fr:.3g}, constraint residual {cr:.3g}). Start closer (q_guess) or run a "
+            "damped dynamic settle (simulate) first."
+        )
+    cond = np.linalg.cond(np.asarray(J))
+    if not np.isfinite(cond) or cond > 1e15:
+        _explain_singular(system, np.asarray(J), nq)
+    return Equilibrium(system, np.asarray(x[:nq]), np.asarray(x[nq:]), float(t), fr, cr, it)
+
+
+def _project(system, q, t, nb):
+    from ..solvers.initial import _normalize_p
+
+    for _ in range(20):
+        phi = constraints(system, q, t)
+        if float(jnp.max(jnp.abs(phi))) < 1e-13:
+            break
+        Pq = jax.jacfwd(lambda qq: constraints(system, qq, t))(q)
+        q = _normalize_p(q - jnp.linalg.lstsq(Pq, phi)[0], nb)
+    return q
+
+
+def _saddle_free(system, q, t, ftol, max_iter, max_step=0.2):
+    """Downhill Newton in the tangent space: K_r → |K_r| (eigenvalues), step norm ≤ max_step."""
+    nb = system.topo.nbody
+    it = 0
+    for it in range(1, max_iter + 1):
+        phi, Pq, Q, lam, K = (np.asarray(a) for a in _tangent_pieces(system, q, t))
+        _, s, Vt = np.linalg.svd(Pq)
+        rank = int(np.sum(s > 1e-10 * s[0]))
+        N = Vt[rank:].T
+        g = -(N.T @ Q)  # gradient of the potential along the tangent directions
+        if np.max(np.abs(Pq.T @ lam - Q)) < ftol:
+            break
+        Kr = N.T @ K @ N
+        Kr = 0.5 * (Kr + Kr.T)
+        w, V = np.linalg.eigh(Kr)
+        wmax = max(np.max(np.abs(w)), 1e-300)
+        w_mod = np.maximum(np.abs(w), 1e-8 * wmax)
+        y = -V @ ((V.T @ g) / w_mod)
+        nrm = np.linalg.norm(y)
+        if nrm > max_step:
+            y *= max_step / nrm
+        q = _project(system, q + jnp.asarray(N @ y), t, nb)
+        if nrm < 1e-12:
+            break
+    return q, it
+
+
+def _explain_singular(system, J, nq):
+    _, s, Vt = np.linalg.svd(J)
+    null = Vt[-1, :nq].reshape(system.topo.nbody, 7)
+    mag = np.linalg.norm(null, axis=1)
+    moving = [system.topo.body_names[b] for b in np.argsort(-mag) if mag[b] > 0.1 * mag.max()]
+    raise ModelError(
+        f"Model '{system.topo.name}' is not statically determinate: free rigid motion involving part(s) "
+        f"{moving} (no stiffness resists it). Add a joint, spring or contact that holds it, or simulate instead."
+    )

@@ -1,0 +1,249 @@
+"""``proleg identify ...`` and ``proleg validate``: classical identification and validation from files.
+
+Thin wrappers: read and check the file (:mod:`proleg.identify.data`), call
+:mod:`proleg.identify` / :mod:`proleg.validate`, print a rich table or one JSON object
+(``--json``), optionally save a figure. A bad file prints the reason (file, column, row) and exits
+with code 2.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import math
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from ..errors import DataError
+
+identify_app = typer.Typer(help="Identify stiffness, damping, friction and battery parameters from measurements.",
+                           no_args_is_help=True)
+
+_UNITS_HELP = ("Units per role, e.g. 'force=N,stroke=mm,time=ms'. Default: the column-name suffix "
+               "(time_ms -> ms, position_mm -> mm) or SI.")
+
+
+def _fail(message: str) -> None:
+    Console(stderr=True).print(f"[bold red]Error:[/] {message}", highlight=False, soft_wrap=True)
+    raise typer.Exit(code=2)
+
+
+def _data_errors(fn):
+    """Turn a DataError (and a missing file) into a clear message and exit code 2."""
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        try:
+            return fn(*args, **kwargs)
+        except DataError as exc:
+            _fail(str(exc))
+        except FileNotFoundError as exc:
+            _fail(f"{exc.filename}: file not found.")
+
+    return wrapper
+
+
+def _json_out(obj: dict) -> None:
+    """Print exactly one JSON object (no NaN: non-finite floats become null)."""
+
+    def clean(v):
+        if isinstance(v, float) and not math.isfinite(v):
+            return None
+        if isinstance(v, dict):
+            return {k: clean(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [clean(x) for x in v]
+        if hasattr(v, "item"):
+            return clean(v.item())
+        return v
+
+    typer.echo(json.dumps(clean(obj), allow_nan=False))
+
+
+def _g(v: float) -> str:
+    return f"{v:.5g}"
+
+
+@identify_app.command("hysteresis")
+@_data_errors
+def hysteresis(
+    data: Annotated[Path, typer.Argument(help="CSV or Parquet file with force and stroke columns.")],
+    force: Annotated[str, typer.Option("--force", help="Force column.")],
+    stroke: Annotated[str, typer.Option("--stroke", help="Stroke (displacement) column.")],
+    time: Annotated[str, typer.Option("--time", help="Time column.")] = "time",
+    units: Annotated[str | None, typer.Option("--units", help=_UNITS_HELP)] = None,
+    run_col: Annotated[str | None, typer.Option("--run-col", help="Column with a run id (else runs are "
+                                                                  "split at time restarts/gaps).")] = None,
+    confidence: Annotated[float, typer.Option("--confidence", min=0.5, max=0.999)] = 0.95,
+    figure: Annotated[Path | None, typer.Option("--figure", help="Save loops + RMS line here (PNG/PDF/SVG).")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object instead of a table.")] = False,
+) -> None:
+    """Stiffness (RMS line, Eq. 4), damping (loop energy, Eq. 5) and Coulomb friction with intervals."""
+    from ..identify.classical import identify_hysteresis, plot_hysteresis
+    from ..identify.data import load_record, parse_units
+
+    rec = load_record(data, {"force": force, "stroke": stroke, "time": time}, units=parse_units(units),
+                      time="time", run_col=run_col)
+    res = identify_hysteresis(rec["time"], rec["stroke"], rec["force"], run=rec.run, confidence=confidence,
+                              source=rec.source, stroke_name=stroke)
+    if figure is not None:
+        plot_hysteresis(res, figure)
+    if as_json:
+        out = res.to_dict()
+        out["file"] = str(data)
+        out["columns"] = rec.columns
+        out["units_read"] = rec.units
+        if figure is not None:
+            out["figure"] = str(figure)
+        _json_out(out)
+        return
+    con = Console()
+    rep = ("each loop is one repetition (one continuous run)" if res.repetition == "loop"
+           else f"each of the {res.nruns} runs is one repetition")
+    tb = Table(title=f"{data.name}: {len(res.loops)} loops, {len(res.repetitions)} repetitions ({rep})")
+    for col in ("quantity", "mean", f"{int(100 * confidence)} % CI", "σ rel", "unit"):
+        tb.add_column(col, justify="right" if col != "quantity" else "left")
+    names = {"k": "k (RMS slope, Eq. 4)", "c": "c (loop energy, Eq. 5)", "friction": "F_c (loop area = 4 F_c X)",
+             "k_fit": "k (fit with Coulomb term)", "friction_fit": "F_c (fit F = kx + F_c sgn ẋ + F0)"}
+    for q, row in res.table.iterrows():
+        tb.add_row(names.get(q, q), _g(row["mean"]), f"[{_g(row['ci_low'])}, {_g(row['ci_high'])}]",
+                   f"{100 * row['rel_sigma']:.2f} %", row["unit"])
+    con.print(tb)
+    con.print(f"units read: {rec.units}")
+    if figure is not None:
+        con.print(f"figure: {figure}")
+
+
+@identify_app.command("drop")
+@_data_errors
+def drop(
+    data: Annotated[Path, typer.Argument(help="CSV or Parquet file of one drop test.")],
+    force: Annotated[str, typer.Option("--force", help="Impact (ground) force column, upwards positive.")],
+    time: Annotated[str, typer.Option("--time", help="Time column.")],
+    mass: Annotated[float, typer.Option("--mass", help="Dropped mass [kg].")],
+    stroke: Annotated[str | None, typer.Option("--stroke", help="Measured compression column (optional).")] = None,
+    v_impact: Annotated[float | None, typer.Option("--v-impact", help="Impact speed [m/s] (default: Eq. 7).")] = None,
+    height: Annotated[float | None, typer.Option("--height", help="Drop height [m]; v = sqrt(2 g h).")] = None,
+    units: Annotated[str | None, typer.Option("--units", help=_UNITS_HELP)] = None,
+    threshold: Annotated[float | None, typer.Option("--threshold", help="Force rise marking the impact [N].")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
+) -> None:
+    """Damping from a drop test by impulse/momentum balance (seed 000, Eqs. 6-7)."""
+    from ..identify.classical import G0, drop_damping
+    from ..identify.data import load_record, parse_units
+
+    if v_impact is not None and height is not None:
+        raise DataError("give either --v-impact or --height, not both.")
+    if height is not None:
+        if not height > 0:
+            raise DataError(f"--height must be positive [m], got {height}.")
+        v_impact = math.sqrt(2.0 * G0 * height)
+    rec = load_record(data, {"force": force, "time": time, "stroke": stroke}, units=parse_units(units), time="time")
+    res = drop_damping(rec["time"], rec["force"], mass, stroke=rec.data.get("stroke"), v_impact=v_impact,
+                       threshold=threshold, source=rec.source)
+    if as_json:
+        out = res.to_dict()
+        out["file"] = str(data)
+        _json_out(out)
+        return
+    tb = Table(title=f"{data.name}: drop test, m = {mass:g} kg")
+    tb.add_column("quantity")
+    tb.add_column("value", justify="right")
+    tb.add_column("unit")
+    for name, v, u in [("impact at", res.t_impact, "s"), ("ΔT (impact window)", res.duration, "s"),
+                       ("impulse ∫F dt", res.impulse, "N s"), ("v_i used", res.v_impact, "m/s"),
+                       ("v_i from Eq. 7", res.v_impact_eq7 if res.v_impact_eq7 is not None else float("nan"), "m/s"),
+                       ("Δl_max", res.dl_max, "m"), ("c (momentum fit)", res.c, "N s/m"),
+                       ("k (momentum fit)", res.k, "N/m"), ("c (Eq. 6 as printed)", res.c_eq6, "N s/m")]:
+        tb.add_row(name, "-" if not math.isfinite(v) else _g(v), u)
+    Console().print(tb)
+
+
+@identify_app.command("battery")
+@_data_errors
+def battery(
+    data: Annotated[Path, typer.Argument(help="CSV or Parquet file with current and voltage.")],
+    current: Annotated[str, typer.Option("--current", help="Load current column [A].")],
+    voltage: Annotated[str, typer.Option("--voltage", help="Terminal voltage column [V].")],
+    units: Annotated[str | None, typer.Option("--units", help="Units, e.g. 'current=mA,voltage=V'.")] = None,
+    figure: Annotated[Path | None, typer.Option("--figure", help="Save data, fit and residuals here.")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
+) -> None:
+    """Battery model V = V_nom - i R_s by least squares (seed 003, Eq. 9)."""
+    from ..identify.classical import fit_battery, plot_battery
+    from ..identify.data import load_record, parse_units
+
+    rec = load_record(data, {"current": current, "voltage": voltage}, units=parse_units(units), time=None,
+                      allow_constant=("voltage",))
+    fit = fit_battery(rec["current"], rec["voltage"], source=rec.source)
+    if figure is not None:
+        plot_battery(fit, figure)
+    if as_json:
+        out = fit.to_dict()
+        out["file"] = str(data)
+        _json_out(out)
+        return
+    tb = Table(title=f"{data.name}: V = V_nom − i R_s ({fit.current.size} points)")
+    for c in ("parameter", "value", "std. error", "unit"):
+        tb.add_column(c)
+    tb.add_row("V_nom", _g(fit.v_nom), _g(fit.v_nom_se), "V")
+    tb.add_row("R_s", _g(fit.r_s), _g(fit.r_s_se), "Ω")
+    tb.add_row("RMS residual", _g(fit.rms), "", "V")
+    Console().print(tb)
+
+
+@_data_errors
+def validate_cmd(
+    sim: Annotated[Path, typer.Argument(help="Simulation result (CSV or Parquet) with a time column.")],
+    data: Annotated[Path, typer.Argument(help="Measurement (CSV or Parquet).")],
+    map: Annotated[str, typer.Option("--map", help="Signal pairs 'sim_col=data_col,...'.")],
+    sim_time: Annotated[str, typer.Option("--sim-time", help="Time column of the simulation [s].")] = "time",
+    data_time: Annotated[str, typer.Option("--data-time", help="Time column of the measurement.")] = "time",
+    units: Annotated[str | None, typer.Option("--units", help="Units of measurement columns, e.g. "
+                                                               "'time_ms=ms,force=kN' (default: suffix or SI).")] = None,
+    align: Annotated[bool, typer.Option("--align/--no-align", help="Shift the simulation by cross-correlation.")] = True,
+    max_shift: Annotated[float | None, typer.Option("--max-shift", help="Largest shift searched [s].")] = None,
+    figure: Annotated[Path | None, typer.Option("--figure", help="Save an overlay figure here.")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
+) -> None:
+    """Compare a simulation with a measurement: time shift, RMS / max / normalised error, correlation."""
+    from ..identify.data import _suffix_unit, check_signal, parse_mapping, read_table, unit_factor
+    from ..validate import compare, plot_overlay
+
+    pairs = parse_mapping(map, what="--map")
+    if not pairs:
+        raise DataError("--map is empty; give pairs like 'hip_force=force_N'.")
+    unit_map = parse_mapping(units, what="--units")
+    s = read_table(sim)
+    e = read_table(data).copy()
+    for col in [data_time, *pairs.values()]:
+        if col not in e.columns:
+            raise DataError(f"{data}: column '{col}' not found. Available columns: "
+                            f"{', '.join(str(c) for c in e.columns)}.")
+        unit = unit_map.get(col) or _suffix_unit(col)
+        if unit:
+            vals = check_signal(e[col], source=str(data), column=col, allow_constant=True)
+            e[col] = vals * unit_factor(unit, what=f"{data}: unit of '{col}'")
+    res = compare(s, e, pairs, sim_time=sim_time, exp_time=data_time, align=align, max_shift=max_shift)
+    if figure is not None:
+        plot_overlay(res, figure)
+    if as_json:
+        _json_out({"shift": res.shift, "metrics": {k: dict(v) for k, v in res.metrics.iterrows()}})
+        return
+    tb = Table(title=f"{sim.name} vs {data.name} (simulation shifted by {res.shift:.4g} s)")
+    for c in ("signal", "sim", "RMS", "max |e|", "NRMS", "r", "n"):
+        tb.add_column(c)
+    for sig, row in res.metrics.iterrows():
+        tb.add_row(sig, row["sim"], _g(row["rms"]), _g(row["max_abs"]), f"{100 * row['nrms']:.2f} %",
+                   f"{row['r']:.4f}", str(int(row["n"])))
+    Console().print(tb)
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``identify`` (sub-commands hysteresis, drop, battery) and ``validate`` to the main app."""
+    app.add_typer(identify_app, name="identify")
+    app.command("validate")(validate_cmd)
