@@ -4,6 +4,30 @@ import jax as _jax
 
 _jax.config.update("jax_enable_x64", True)
 
+
+def _enable_compilation_cache():
+    """Persistent XLA compilation cache in the user's cache folder, so a model compiled once is
+    not recompiled by the next process (set PROLEG_CACHE_DIR to move it, or to "" to disable)."""
+    import os
+
+    path = os.environ.get("PROLEG_CACHE_DIR")
+    if path is None:
+        base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+        path = os.path.join(base, "proleg", "jax")
+    if not path:
+        return
+    try:
+        os.makedirs(path, exist_ok=True)
+        if _jax.config.jax_compilation_cache_dir is None:
+            _jax.config.update("jax_compilation_cache_dir", path)
+            _jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
+            _jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
+    except (OSError, AttributeError):  # read-only home or an older jax: run without the cache
+        pass
+
+
+_enable_compilation_cache()
+
 __version__ = "0.1.0"
 
 from . import units as units
@@ -38,3 +62,13 @@ from .analyses.equilibrium import Equilibrium as Equilibrium
 from .analyses.equilibrium import solve_equilibrium as solve_equilibrium
 from .analyses.linearize import LinearModel as LinearModel
 from .analyses.linearize import linearize as linearize
+from .model.contacts import CylinderContact as CylinderContact
+from .model.contacts import PointContact as PointContact
+from .model.contacts import SphereContact as SphereContact
+from .model.control import PID as PID
+from .model.control import DiscreteController as DiscreteController
+from .model.control import HydraulicActuator as HydraulicActuator
+from .model.control import JointActuator as JointActuator
+from .model.control import Motion as Motion
+from .model.control import TranslationalActuator as TranslationalActuator
+from . import fn as fn

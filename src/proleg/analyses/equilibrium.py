@@ -39,10 +39,20 @@ class Equilibrium:
         return f"Equilibrium({self.system.topo.name!r}: {self.iterations} iterations, |F| = {self.force_residual:.2e}, |Φ| = {self.constraint_residual:.2e})"
 
 
+def static_forces(system, q, t):
+    """Q(q, 0, t) with sampled controllers evaluated continuously at q (their static law)."""
+    from ..solvers.driver import sample_controllers
+    from .simulate import initial_z
+
+    v = jnp.zeros_like(q)
+    z = sample_controllers(system, t, q, v, initial_z(system), True)
+    return generalized_forces(system, q, v, t, z)
+
+
 def _residual(system, x, t, nq):
     q, lam = x[:nq], x[nq:]
     phi, vjp = jax.vjp(lambda qq: constraints(system, qq, t), q)
-    f = vjp(lam)[0] - generalized_forces(system, q, jnp.zeros_like(q), t)
+    f = vjp(lam)[0] - static_forces(system, q, t)
     return jnp.concatenate([f, phi])
 
 
@@ -86,12 +96,12 @@ def check_connected(system: System):
 def _tangent_pieces(system, q, t):
     """Φ, Φ_q, generalized force Q(q, 0), and the stiffness ∂(Φ_qᵀλ − Q)/∂q with least-squares λ."""
     Pq = jax.jacfwd(lambda qq: constraints(system, qq, t))(q)
-    Q = generalized_forces(system, q, jnp.zeros_like(q), t)
+    Q = static_forces(system, q, t)
     lam = jnp.linalg.lstsq(Pq.T, Q)[0]
 
     def f(qq):
         _, vjp = jax.vjp(lambda x: constraints(system, x, t), qq)
-        return vjp(lam)[0] - generalized_forces(system, qq, jnp.zeros_like(qq), t)
+        return vjp(lam)[0] - static_forces(system, qq, t)
 
     return constraints(system, q, t), Pq, Q, lam, jax.jacfwd(f)(q)
 
@@ -109,10 +119,10 @@ def solve_equilibrium(
     Raises ModelError if the model is not statically determinate (free rigid motion: the
     stiffness restricted to the constraint tangent space is singular), naming the parts that move.
     """
-    from .simulate import consistent_state
+    from .simulate import consistent_state, initial_z
 
     check_connected(system)
-    q0, _, _, lam0 = consistent_state(system, q_guess, None, t)
+    q0, _, _, lam0, z0 = consistent_state(system, q_guess, None, t, initial_z(system))
     nq = system.topo.nq
     t = jnp.asarray(t, jnp.float64)
     scale = 1.0 + float(jnp.max(jnp.abs(system.params["body_mass"]))) * float(jnp.linalg.norm(system.params["gravity"]))

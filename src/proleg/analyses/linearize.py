@@ -102,7 +102,11 @@ def linearize(system: System, state=None, t: float = 0.0) -> LinearModel:
 
     def f(q, v):
         _, vjp = jax.vjp(lambda qq: constraints(system, qq, t), q)
-        return vjp(lam)[0] - generalized_forces(system, q, v, t)
+        from ..solvers.driver import sample_controllers
+        from .simulate import initial_z
+
+        z = sample_controllers(system, t, q, v, initial_z(system), True)
+        return vjp(lam)[0] - generalized_forces(system, q, v, t, z)
 
     K = np.asarray(jax.jacfwd(f, 0)(q0, v0))
     C = np.asarray(jax.jacfwd(f, 1)(q0, v0))

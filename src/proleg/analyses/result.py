@@ -186,6 +186,39 @@ class Result:
 
     force = element
 
+    def contact(self, name) -> ElementResult:
+        """normal_force (n,), friction_force (n, 3), force (n, 3) on the contacting part (= the GRF a
+        force plate measures), penetration, penetration_rate, slip_velocity, in_contact, point."""
+        return self.element(name)
+
+    def actuator(self, name) -> ElementResult:
+        return self.element(name)
+
+    def controller(self, name) -> ElementResult:
+        """``output`` (the held command u [N m or N]) and ``state`` (the controller's z slice)."""
+        key = getattr(name, "name", name)
+        for g in self.system.topo.extensions:
+            if g.kind == "controller" and key in g.names:
+                k = g.names.index(key)
+                off, size = g.slices[k]
+                zs = self.z[:, off : off + size]
+                e = g.elements[k]
+                out = zs[:, 0] if e.kind == "pid" else zs[:, e.z0.size :]
+                res = ElementResult(output=self._np(out), state=self._np(zs))
+                if e.kind == "pid":
+                    res["command"] = self._np(zs[:, 2])
+                return res
+        raise ModelError(f"No controller named '{key}' in the result.")
+
+    def motion(self, name) -> ElementResult:
+        """``effort``: the force [N] or torque [N m] the motion applies to the joint's part I along/about z."""
+        jr = self.joint(name)
+        owners = self.system.topo.ct.owners
+        m = next(o for o in owners if o.name == getattr(name, "name", name))
+        eff = jr.torque_local[:, 2] if m.dof == "rotation" else jr.force_local[:, 2]
+        coord = jr.angle if m.dof == "rotation" else jr.translation
+        return ElementResult(effort=self._np(eff), coordinate=self._np(coord), force=jr.force, torque=jr.torque)
+
     # -- energies ------------------------------------------------------------------------------
     @cached_property
     def energy(self) -> ElementResult:

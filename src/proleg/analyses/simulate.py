@@ -13,7 +13,7 @@ import numpy as np
 
 from ..assembly.system import System, constraints, power_terms
 from ..errors import ConvergenceError, SolverError, Status
-from ..solvers.driver import DriverOptions, advance
+from ..solvers.driver import DriverOptions, advance, sample_controllers
 from ..solvers.galpha import GeneralizedAlpha, StepOptions, StepState
 from ..solvers.initial import _normalize_p, kkt_accelerations, mass_matrix
 from .result import Result
@@ -70,8 +70,9 @@ def consistent_state(system: System, q_user=None, v_user=None, t0=0.0, z0=None, 
                 f"{float(res):.3g} in '{elem}', equation {lab}). Check joint locations and part poses."
             )
     z = jnp.zeros(0) if z0 is None else z0
+    z = jax.jit(sample_controllers, static_argnums=(5,))(system, t0, q, v, z, True)
     qdd, lam = jax.jit(kkt_accelerations)(system, q, v, t0, z)
-    return q, v, qdd, lam
+    return q, v, qdd, lam, z
 
 
 def _ic_report(system, q, v):
@@ -92,7 +93,7 @@ def _ic_report(system, q, v):
 
 
 def initial_z(system: System):
-    parts = [g.z0(system.params) for g in system.topo.extensions if hasattr(g, "z0")]
+    parts = [jnp.asarray(g.z0(system.params)) for g in system.topo.extensions if hasattr(g, "z0")]
     return jnp.concatenate(parts) if parts else jnp.zeros(0)
 
 
@@ -166,7 +167,7 @@ def simulate(
         sample_period=sample_period(system),
     )
     z0 = initial_z(system)
-    q, v, qdd, lam = consistent_state(system, q0, v0, t0, z0)
+    q, v, qdd, lam, z0 = consistent_state(system, q0, v0, t0, z0)
     traced = _any_traced((system.params, q))
     pw = power_terms(system, q, v, t0, z0)
     st = StepState(

@@ -294,7 +294,13 @@ GROUP_BUILDERS = [
     (RotationalSpringDamper, RotationalSpringDamperGroup),
     (Bushing, BushingGroup),
 ]
-EXTENSION_HOOKS: list = []  # callables(model, topo, marker_index, params) → list of groups (issues 3+)
+def _extension_hook(model, topo, marker_index, params):
+    from .extensions import build_extensions
+
+    return build_extensions(model, topo, marker_index, params)
+
+
+EXTENSION_HOOKS: list = [_extension_hook]  # callables(model, topo, marker_index, params) → list of groups
 
 
 def _joint_rows(model: Model, marker_index, owners):
@@ -433,6 +439,13 @@ def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
         topo.ct = build_constraint_topology(kept_rows, nm, nb, owners)
     topo.dropped = dropped
     system = System({k: jnp.asarray(v, dtype=jnp.float64) for k, v in params.items()}, topo)
+    ctrl = next((g for g in extensions if g.kind == "controller"), None)
+    if ctrl is not None and "controller_setpoint0" in params:
+        from .extensions import joint_coordinate
+
+        _, mk = kinematics(system, jnp.asarray(q0), jnp.asarray(v0))
+        th, _, _, _ = joint_coordinate(ctrl.pid_oh_i, ctrl.pid_oh_j, ctrl.pid_rot, mk)
+        system = system.with_params(controller_setpoint0=th)
     return system
 
 

@@ -29,6 +29,7 @@ class Model:
         self.contacts: list = []
         self.motions: list = []
         self.controllers: list = []
+        self.actuators: list = []
         self._names: dict[str, object] = {}
 
     # -- names -------------------------------------------------------------------------------
@@ -116,6 +117,82 @@ class Model:
                 element.marker = self.add_marker(element.part, f"{element.name}.at", at)
         self.forces.append(element)
         return element
+
+    def add_contact(self, contact):
+        """Add a contact (SphereContact, PointContact, CylinderContact); a ground plane z = 0 by default."""
+        from .contacts import SphereContact
+
+        if not isinstance(contact, SphereContact):
+            raise ModelError(f"add_contact expects a contact element (SphereContact, ...), got {contact!r}.")
+        self._claim("Contact", contact.name, contact)
+        who = f"{type(contact).__name__} '{contact.name}'"
+        self._check_marker(contact.marker, who)
+        if contact.plane is None:
+            contact.plane = self.add_marker(self.ground, f"{contact.name}.plane", (0.0, 0.0, 0.0))
+        else:
+            self._check_marker(contact.plane, who)
+        if contact.plane.part is contact.marker.part:
+            raise ModelError(f"{who}: the contact marker and the plane are on the same part '{contact.plane.part.name}'.")
+        self.contacts.append(contact)
+        return contact
+
+    def add_motion(self, motion):
+        """Add an imposed joint motion (a rheonomic constraint)."""
+        from .control import Motion
+
+        if not isinstance(motion, Motion):
+            raise ModelError(f"add_motion expects a Motion, got {motion!r}.")
+        self._claim("Motion", motion.name, motion)
+        joint = motion.joint_ref if isinstance(motion.joint_ref, AbstractJoint) else self.joint(motion.joint_ref)
+        motion.resolve(joint)
+        self.motions.append(motion)
+        return motion
+
+    def add_actuator(self, actuator):
+        """Add a JointActuator, TranslationalActuator or HydraulicActuator."""
+        from .control import HydraulicActuator, JointActuator, TranslationalActuator
+
+        if not isinstance(actuator, JointActuator | TranslationalActuator | HydraulicActuator):
+            raise ModelError(f"add_actuator expects an actuator element, got {actuator!r}.")
+        self._claim("Actuator", actuator.name, actuator)
+        who = f"{type(actuator).__name__} '{actuator.name}'"
+        if isinstance(actuator, JointActuator):
+            joint = actuator.joint_ref if isinstance(actuator.joint_ref, AbstractJoint) else self.joint(actuator.joint_ref)
+            dof = actuator.dof or ("rotation" if joint.dof_rotation else "translation" if joint.dof_translation else None)
+            if dof is None or (dof == "rotation" and not joint.dof_rotation) or (dof == "translation" and not joint.dof_translation):
+                raise ModelError(f"{who}: joint '{joint.name}' ({joint.kind}) has no {dof or 'free'} degree of freedom to actuate.")
+            actuator.joint, actuator.dof = joint, dof
+            actuator.i, actuator.j = joint.marker_i, joint.marker_j
+        else:
+            self._check_marker(actuator.i, who)
+            self._check_marker(actuator.j, who)
+        self.actuators.append(actuator)
+        return actuator
+
+    def add_controller(self, controller):
+        """Add a sampled controller (PID, DiscreteController, StateMachine)."""
+        from .control import PID, DiscreteController
+
+        if not isinstance(controller, PID | DiscreteController):
+            raise ModelError(f"add_controller expects a controller (PID, DiscreteController), got {controller!r}.")
+        self._claim("Controller", controller.name, controller)
+        if isinstance(controller, PID):
+            joint = controller.joint_ref if isinstance(controller.joint_ref, AbstractJoint) else self.joint(controller.joint_ref)
+            dof = controller.dof or ("rotation" if joint.dof_rotation else "translation" if joint.dof_translation else None)
+            if dof is None:
+                raise ModelError(f"PID '{controller.name}': joint '{joint.name}' ({joint.kind}) has no degree of freedom to servo.")
+            controller.joint, controller.dof = joint, dof
+            if controller.actuator_ref is None:
+                from .control import JointActuator
+
+                act = JointActuator(f"{controller.name}.actuator", joint, dof=dof)
+                self.add_actuator(act)
+                controller.actuator_ref = act.name
+        self.controllers.append(controller)
+        return controller
+
+    def _constraint_owners_extra(self):
+        return list(self.motions)
 
     # -- lookup ------------------------------------------------------------------------------
     def _get(self, kind, name):

@@ -1,1 +1,7 @@
-"""proleg.robots"""
+"""proleg.robots: the built-in models of the source papers.
+
+- :func:`hyq_leg`: the HyQ hydraulic leg on the HAL test bench (seeds 000 and 001), rigid or
+  with 4 or 8 pin bushings; virtual bench tests in :mod:`proleg.robots.hyq_tests`.
+"""
+
+from .hyq_leg import hyq_leg as hyq_leg

@@ -28,13 +28,16 @@ class DriverOptions:
     sample_period: float | None = None  # controller clock [s]
 
 
-def _sample_update(system, st: StepState):
-    """Controller sample: z ← update(t, q, v, z) for every discrete element (issue 3 hook)."""
-    z = st.z
+def sample_controllers(system, t, q, v, z, first=False):
+    """Controller sample: z ← update(t, q, v, z) for every sampled element."""
     for g in system.topo.extensions:
         if hasattr(g, "sample"):
-            z = g.sample(system.params, st.t, st.q, st.v, z, system)
-    return st._replace(z=z)
+            z = g.sample(system.params, t, q, v, z, system, first)
+    return z
+
+
+def _sample_update(system, st: StepState):
+    return st._replace(z=sample_controllers(system, st.t, st.q, st.v, st.z))
 
 
 @partial(jax.jit, static_argnums=(1, 2))

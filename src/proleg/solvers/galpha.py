@@ -154,14 +154,17 @@ def step(system: System, integrator, st: StepState, h, opts: StepOptions):
     def jac_lu(x):
         return lu_factor(jax.jacfwd(residual)(x))
 
-    lu0 = jac_lu(x0)
+    n = x0.shape[0]
 
     def cond(c):
-        x, lu, k, err, prev, conv, bad, r = c
+        x, lu, k, err, prev, conv, bad, r, need = c
         return (~conv) & (~bad) & (k < opts.max_newton)
 
     def body(c):
-        x, lu, k, err, prev, conv, bad, _ = c
+        # Modified Newton: the iteration matrix is (re)built only on the first iteration and
+        # when the contraction is slow; a single jacfwd site keeps compile time down.
+        x, lu, k, err, prev, conv, bad, _, need = c
+        lu = jax.lax.cond(need, jac_lu, lambda _: lu, x)
         r = residual(x)
         dx = -lu_solve(lu, r)
         x = x + dx
@@ -169,12 +172,12 @@ def step(system: System, integrator, st: StepState, h, opts: StepOptions):
         phi_ok = jnp.max(jnp.abs(r[nq:])) < opts.phi_tol
         conv = (e < opts.newton_tol) & phi_ok | (e < 1e-3 * opts.newton_tol)
         bad = ~jnp.isfinite(e) | ((k > 2) & (e > 2.0 * prev) & (prev > 0))
-        slow = (k > 0) & (e > 0.3 * err) & ~conv
-        lu = jax.lax.cond(slow & ~bad, jac_lu, lambda _: lu, x)
-        return x, lu, k + 1, e, err, conv, bad, r
+        need = (k > 0) & (e > 0.3 * err) & ~conv
+        return x, lu, k + 1, e, err, conv, bad, r, need
 
-    init = (x0, lu0, jnp.array(0), jnp.array(jnp.inf), jnp.array(0.0), jnp.array(False), jnp.array(False), jnp.zeros(nq + x0.shape[0] - nq))
-    x, _, iters, _, _, conv, bad, r = jax.lax.while_loop(cond, body, init)
+    lu_init = (jnp.zeros((n, n)), jnp.zeros(n, jnp.int32))
+    init = (x0, lu_init, jnp.array(0), jnp.array(jnp.inf), jnp.array(0.0), jnp.array(False), jnp.array(False), jnp.zeros(n), jnp.array(True))
+    x, _, iters, _, _, conv, bad, r, _ = jax.lax.while_loop(cond, body, init)
     q1 = x[:nq]
     a1, v1, qdd1 = update(q1)
     lam1 = x[nq:] * bp

@@ -1,0 +1,380 @@
+"""Contacts, actuators and sampled controllers as element groups (issue: contacts, motions,
+actuators, drives and discrete controllers).
+
+Controllers own a slice of the discrete state ``z`` (carried by the solver, updated at their
+sample times, held in between: zero-order hold). Actuators read their command from ``z``.
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+
+from ..contact_law import friction_vector, normal_force
+from ..errors import ModelError
+from ..fn import _safe_pow
+from .constraints import _oh, joint_angle, joint_translation
+from .elements import AbstractGroup, TwoMarkerGroup, pair_loads
+
+
+def _frames(oh, mk):
+    return (oh @ mk.R.reshape(-1, 9)).reshape(-1, 3, 3)
+
+
+def joint_coordinate(oh_i, oh_j, rot, mk):
+    """Joint coordinate (angle or translation of I relative to J) and its rate; vectorised."""
+    RI, RJ = _frames(oh_i, mk), _frames(oh_j, mk)
+    rI, rJ = oh_i @ mk.r, oh_j @ mk.r
+    wI, wJ = oh_i @ mk.w, oh_j @ mk.w
+    zJ = RJ[:, :, 2]
+    th = joint_angle(RI, RJ)
+    th_d = jnp.sum(zJ * (wI - wJ), -1)
+    x = joint_translation(rI, rJ, RJ)
+    delta = rI - rJ
+    x_d = jnp.sum(zJ * (oh_i @ mk.v - oh_j @ mk.v), -1) + jnp.sum(jnp.cross(wJ, zJ) * delta, -1)
+    return jnp.where(rot, th, x), jnp.where(rot, th_d, x_d), zJ, delta
+
+
+# ---------------------------------------------------------------------------------------------
+class ContactGroup(AbstractGroup):
+    kind = "contact"
+
+    def __init__(self, elements, marker_index, nm):
+        super().__init__(elements, marker_index, nm)
+        self.oh_i = _oh([marker_index[id(e.marker)] for e in self.elements], nm)
+        self.oh_j = _oh([marker_index[id(e.plane)] for e in self.elements], nm)
+        self.cyl = np.array([e.kind == "cylinder" for e in self.elements], bool)
+        self.body = [e.marker.part.name for e in self.elements]
+
+    def params(self):
+        e = self.elements
+        f = lambda a: np.array([getattr(x, a) for x in e], float)
+        return {f"contact_{a}": f(a) for a in ("radius", "stiffness", "exponent", "damping", "penetration", "mu_static", "mu_dynamic", "v_stiction", "v_friction")}
+
+    def elements_on_body(self, b, body_names=None):
+        return []
+
+    def _law(self, P, mk):
+        c = self.oh_i @ mk.r
+        RI = _frames(self.oh_i, mk)
+        RP = _frames(self.oh_j, mk)
+        n = RP[:, :, 2]
+        o = self.oh_j @ mk.r
+        R = P["contact_radius"]
+        a = RI[:, :, 2]
+        u = n - jnp.sum(n * a, -1, keepdims=True) * a
+        u = u / jnp.sqrt(jnp.sum(u * u, -1, keepdims=True) + 1e-300)
+        dirn = jnp.where(self.cyl[:, None], u, n)
+        p = c - R[:, None] * dirn
+        g = -jnp.sum(n * (p - o), -1)
+        wI, wJ = self.oh_i @ mk.w, self.oh_j @ mk.w
+        vp = self.oh_i @ mk.v + jnp.cross(wI, p - c)
+        vq = self.oh_j @ mk.v + jnp.cross(wJ, p - o)
+        vrel = vp - vq
+        vn = jnp.sum(n * vrel, -1)
+        vt = vrel - vn[:, None] * n
+        gd = -vn
+        Fn = normal_force(g, gd, P["contact_stiffness"], P["contact_exponent"], P["contact_damping"], P["contact_penetration"])
+        mu_vec = friction_vector(vt, P["contact_mu_static"][:, None], P["contact_mu_dynamic"][:, None], P["contact_v_stiction"][:, None], P["contact_v_friction"][:, None])
+        Ft = -Fn[:, None] * mu_vec
+        F = Fn[:, None] * n + Ft
+        return c, p, n, g, gd, vt, vrel, Fn, Ft, F
+
+    def loads(self, P, mk, t, ctx):
+        c, p, n, g, gd, vt, vrel, Fn, Ft, F = self._law(P, mk)
+        T = jnp.cross(p - c, F)
+        return pair_loads(self.oh_i, self.oh_j, F, T, self.oh_i @ mk.r - self.oh_j @ mk.r)
+
+    def _elastic(self, P, g):
+        e = P["contact_exponent"]
+        return jnp.where(g > 0, P["contact_stiffness"] * _safe_pow(g, e + 1.0) / (e + 1.0), 0.0)
+
+    def potential(self, P, mk, t, ctx):
+        c, p, n, g, *_ = self._law(P, mk)
+        return jnp.sum(self._elastic(P, g))
+
+    def dissipation(self, P, mk, t, ctx):
+        c, p, n, g, gd, vt, vrel, Fn, Ft, F = self._law(P, mk)
+        k_el = jnp.where(g > 0, P["contact_stiffness"] * _safe_pow(g, P["contact_exponent"]), 0.0)
+        return jnp.sum((Fn - k_el) * gd - jnp.sum(Ft * vt, -1))
+
+    def outputs(self, P, mk, t, ctx):
+        c, p, n, g, gd, vt, vrel, Fn, Ft, F = self._law(P, mk)
+        return {
+            "normal_force": (Fn, "N"),
+            "friction_force": (Ft, "N"),
+            "force": (F, "N"),
+            "penetration": (g, "m"),
+            "penetration_rate": (gd, "m/s"),
+            "slip_velocity": (jnp.sqrt(jnp.sum(vt * vt, -1)), "m/s"),
+            "in_contact": ((g > 0).astype(jnp.float64), "-"),
+            "point": (p, "m"),
+        }
+
+
+# ---------------------------------------------------------------------------------------------
+class ControllerGroup(AbstractGroup):
+    """PIDs and general discrete controllers; ``z`` slices assigned at assembly."""
+
+    kind = "controller"
+
+    def __init__(self, elements, marker_index, nm, offset=0):
+        super().__init__(elements, marker_index, nm)
+        self.slices = []
+        self.out_index = {}  # actuator name -> z index of its command
+        off = offset
+        for e in self.elements:
+            if e.kind == "pid":
+                size = 3  # [u, integral of error, actuator command]
+                self.out_index[e.actuator_ref] = off + 2
+            else:
+                size = e.z0.size + len(e.outputs)
+                for k, a in enumerate(e.outputs):
+                    self.out_index[a] = off + e.z0.size + k
+            self.slices.append((off, size))
+            off += size
+        self.size = off - offset
+        pids = [e for e in self.elements if e.kind == "pid"]
+        self.pid_oh_i = _oh([marker_index[id(e.joint.marker_i)] for e in pids], nm)
+        self.pid_oh_j = _oh([marker_index[id(e.joint.marker_j)] for e in pids], nm)
+        self.pid_rot = np.array([e.dof == "rotation" for e in pids], bool)
+        self.period = min((e.period for e in self.elements), default=None)
+        self.actuators = {}  # name -> actuator element (filled by the hook)
+
+    def params(self):
+        pids = [e for e in self.elements if e.kind == "pid"]
+        if not pids:
+            return {}
+        return {
+            "controller_kp": np.array([e.kp for e in pids]),
+            "controller_kd": np.array([e.kd for e in pids]),
+            "controller_ki": np.array([e.ki for e in pids]),
+        }
+
+    def z0(self, P):
+        parts = []
+        for e in self.elements:
+            parts.append(np.zeros(3) if e.kind == "pid" else np.concatenate([e.z0, np.zeros(len(e.outputs))]))
+        return jnp.asarray(np.concatenate(parts)) if parts else jnp.zeros(0)
+
+    def sample(self, P, t, q, v, z, system, first=False):
+        from .system import StateView, kinematics
+
+        bk, mk = kinematics(system, q, v)
+        view = StateView(system.topo, bk, mk, t, z)
+        pids = [e for e in self.elements if e.kind == "pid"]
+        if pids:
+            th, th_d, _, _ = joint_coordinate(self.pid_oh_i, self.pid_oh_j, self.pid_rot, mk)
+        z_new = z
+        k_pid = 0
+        for e, (off, size) in zip(self.elements, self.slices):
+            tick = jnp.abs(t / e.period - jnp.round(t / e.period)) < 1e-7
+            if e.kind == "pid":
+                k = k_pid
+                k_pid += 1
+                if e.setpoint is None:
+                    sp = system.params["controller_setpoint0"][k]
+                elif callable(e.setpoint):
+                    sp = jnp.asarray(e.setpoint(t), jnp.float64)
+                else:
+                    sp = jnp.asarray(e.setpoint, jnp.float64)
+                err = sp - th[k]
+                integ = z[off + 1] + jnp.where(first, 0.0, err * e.period)
+                u = P["controller_kp"][k] * err + P["controller_ki"][k] * integ - P["controller_kd"][k] * th_d[k]
+                if e.output_limit is not None:
+                    u = jnp.clip(u, -e.output_limit, e.output_limit)
+                cmd = u
+                if e.lever_arm is not None:
+                    la = e.lever_arm(th[k]) if callable(e.lever_arm) else e.lever_arm
+                    cmd = u / la
+                act = self.actuators.get(e.actuator_ref)
+                tau = getattr(act, "valve_time_constant", None)
+                if tau is not None:
+                    a = np.exp(-e.period / tau)
+                    cmd = jnp.where(first, cmd, a * z[off + 2] + (1 - a) * cmd)
+                new = jnp.stack([u, integ, cmd])
+            else:
+                zi, outs = e.update(t, view, z[off : off + e.z0.size])
+                zi = jnp.atleast_1d(jnp.asarray(zi, jnp.float64))
+                if zi.shape != (e.z0.size,):
+                    raise ModelError(f"DiscreteController '{e.name}': update returned state of shape {zi.shape}; expected ({e.z0.size},).")
+                missing = set(e.outputs) - set(outs)
+                if missing:
+                    raise ModelError(f"DiscreteController '{e.name}': update did not return outputs {sorted(missing)}.")
+                new = jnp.concatenate([zi, jnp.stack([jnp.asarray(outs[a], jnp.float64) for a in e.outputs])])
+            z_new = z_new.at[off : off + size].set(jnp.where(tick | first, new, z[off : off + size]))
+        return z_new
+
+    def outputs(self, P, mk, t, ctx):
+        return {}
+
+
+# ---------------------------------------------------------------------------------------------
+class _CommandMixin:
+    def _command(self, P, t, ctx, const_key, fns):
+        vals = []
+        for k, e in enumerate(self.elements):
+            if self.cmd_index[k] >= 0:
+                vals.append(ctx.z[self.cmd_index[k]])
+            elif fns[k] is not None:
+                f = fns[k]
+                from ..model.forces import _callable_arity
+
+                out = f(t) if _callable_arity(f) <= 1 else f(t, ctx)
+                vals.append(jnp.asarray(out, jnp.float64))
+            else:
+                vals.append(P[const_key][k])
+        return jnp.stack(vals) if vals else jnp.zeros(0)
+
+
+class JointActuatorGroup(TwoMarkerGroup, _CommandMixin):
+    kind = "joint_actuator"
+
+    def __init__(self, elements, marker_index, nm, cmd_index):
+        super().__init__(elements, marker_index, nm)
+        self.rot = np.array([e.dof == "rotation" for e in self.elements], bool)
+        self.cmd_index = cmd_index
+
+    def params(self):
+        return {"joint_actuator_effort": np.array([e.effort_value for e in self.elements], float)}
+
+    def _law(self, P, mk, t, ctx):
+        x, xd, zJ, delta = joint_coordinate(self.oh_i, self.oh_j, self.rot, mk)
+        u = self._command(P, t, ctx, "joint_actuator_effort", [e.effort if callable(e.effort) else None for e in self.elements])
+        outs = []
+        for k, e in enumerate(self.elements):
+            uk = u[k]
+            if e.drive is not None:
+                from ..drives.dcmotor import delivered_torque
+
+                uk = delivered_torque(e.drive, uk, xd[k]).torque
+            if e.limit is not None:
+                uk = jnp.clip(uk, -e.limit, e.limit)
+            outs.append(uk)
+        u = jnp.stack(outs)
+        return x, xd, zJ, delta, u
+
+    def loads(self, P, mk, t, ctx):
+        x, xd, zJ, delta, u = self._law(P, mk, t, ctx)
+        V = u[:, None] * zJ
+        rot = self.rot[:, None]
+        return pair_loads(self.oh_i, self.oh_j, jnp.where(rot, 0.0, V), jnp.where(rot, V, 0.0), delta)
+
+    def input_power(self, P, mk, t, ctx):
+        x, xd, zJ, delta, u = self._law(P, mk, t, ctx)
+        return jnp.sum(u * xd)
+
+    def outputs(self, P, mk, t, ctx):
+        x, xd, zJ, delta, u = self._law(P, mk, t, ctx)
+        return {"effort": (u, "N m|N"), "coordinate": (x, "rad|m"), "rate": (xd, "rad/s|m/s"), "power": (u * xd, "W")}
+
+
+class LineActuatorGroup(TwoMarkerGroup, _CommandMixin):
+    """TranslationalActuator and HydraulicActuator (spring-damper + commanded force along I–J)."""
+
+    def __init__(self, elements, marker_index, nm, cmd_index, kind):
+        super().__init__(elements, marker_index, nm)
+        self.kind = kind
+        self.cmd_index = cmd_index
+        self.hyd = kind == "hydraulic_actuator"
+
+    def params(self):
+        e = self.elements
+        if self.hyd:
+            return {
+                "hydraulic_actuator_stiffness": np.array([x.stiffness for x in e]),
+                "hydraulic_actuator_damping": np.array([x.damping for x in e]),
+                "hydraulic_actuator_free_length": np.array([x.free_length for x in e]),
+                "hydraulic_actuator_force": np.zeros(len(e)),
+            }
+        return {"translational_actuator_force": np.array([x.force_value for x in e])}
+
+    def _law(self, P, mk, t, ctx):
+        rI, rJ, vI, vJ = self._ends(mk)
+        delta = rI - rJ
+        ell = jnp.sqrt(jnp.sum(delta * delta, -1))
+        u = delta / ell[:, None]
+        rate = jnp.sum(u * (vI - vJ), -1)
+        key = f"{self.kind}_force"
+        fns = [getattr(e, "force", None) if callable(getattr(e, "force", None)) else None for e in self.elements]
+        cmd = self._command(P, t, ctx, key, fns)
+        for k, e in enumerate(self.elements):
+            if getattr(e, "force_limit", None) is not None:
+                cmd = cmd.at[k].set(jnp.clip(cmd[k], -e.force_limit, e.force_limit))
+        if self.hyd:
+            ext = ell - P["hydraulic_actuator_free_length"]
+            f_el = -P["hydraulic_actuator_stiffness"] * ext
+            f_d = -P["hydraulic_actuator_damping"] * rate
+        else:
+            ext = jnp.zeros_like(ell)
+            f_el = f_d = jnp.zeros_like(ell)
+        return delta, ell, u, rate, ext, f_el, f_d, cmd
+
+    def loads(self, P, mk, t, ctx):
+        delta, ell, u, rate, ext, f_el, f_d, cmd = self._law(P, mk, t, ctx)
+        F = (f_el + f_d + cmd)[:, None] * u
+        return pair_loads(self.oh_i, self.oh_j, F, jnp.zeros_like(F), delta)
+
+    def potential(self, P, mk, t, ctx):
+        if not self.hyd:
+            return 0.0
+        delta, ell, u, rate, ext, *_ = self._law(P, mk, t, ctx)
+        return jnp.sum(0.5 * P["hydraulic_actuator_stiffness"] * ext**2)
+
+    def dissipation(self, P, mk, t, ctx):
+        if not self.hyd:
+            return 0.0
+        delta, ell, u, rate, *_ = self._law(P, mk, t, ctx)
+        return jnp.sum(P["hydraulic_actuator_damping"] * rate**2)
+
+    def input_power(self, P, mk, t, ctx):
+        delta, ell, u, rate, ext, f_el, f_d, cmd = self._law(P, mk, t, ctx)
+        return jnp.sum(cmd * rate)
+
+    def outputs(self, P, mk, t, ctx):
+        delta, ell, u, rate, ext, f_el, f_d, cmd = self._law(P, mk, t, ctx)
+        f = f_el + f_d + cmd
+        return {
+            "force": (f[:, None] * u, "N"),
+            "tension": (-f, "N"),
+            "axial_force": (f, "N"),
+            "command": (cmd, "N"),
+            "length": (ell, "m"),
+            "velocity": (rate, "m/s"),
+            "power": (f * rate, "W"),
+        }
+
+
+def build_extensions(model, topo, marker_index, params):
+    """EXTENSION_HOOK: contacts, controllers and actuators of ``model`` as groups."""
+    nm = len(marker_index)
+    groups = []
+    if model.contacts:
+        groups.append(ContactGroup(model.contacts, marker_index, nm))
+    ctrl = ControllerGroup(model.controllers, marker_index, nm) if model.controllers else None
+    acts = {a.name: a for a in model.actuators}
+    if ctrl is not None:
+        for e in model.controllers:
+            refs = [e.actuator_ref] if e.kind == "pid" else e.outputs
+            for r in refs:
+                if r not in acts:
+                    raise ModelError(f"Controller '{e.name}' drives actuator '{r}', which is not in the model. Known: {sorted(acts)}")
+        ctrl.actuators = acts
+        groups.append(ctrl)
+        pids = [e for e in model.controllers if e.kind == "pid"]
+        if pids:
+            q0 = params["q_init"]
+            params["controller_setpoint0"] = np.zeros(len(pids))  # filled after assembly (modelled pose)
+    for kind in ("joint_actuator", "translational_actuator", "hydraulic_actuator"):
+        elems = [a for a in model.actuators if a.kind == kind]
+        if not elems:
+            continue
+        cmd = np.array([ctrl.out_index.get(a.name, -1) if ctrl is not None else -1 for a in elems], int)
+        if kind == "joint_actuator":
+            groups.append(JointActuatorGroup(elems, marker_index, nm, cmd))
+        else:
+            groups.append(LineActuatorGroup(elems, marker_index, nm, cmd, kind))
+    for g in groups:
+        if len(g):
+            params.update(g.params())
+    return groups

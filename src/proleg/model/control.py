@@ -1,0 +1,216 @@
+"""Motions (imposed joint coordinates), actuators, and discrete controllers."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ModelError
+from ._validate import finite_scalar
+from .parts import Marker
+
+# 20-point Gauss-Legendre rule on [0, 1] for velocity/acceleration-level motions.
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(20)
+_GL_X = 0.5 * (_GL_X + 1.0)
+_GL_W = 0.5 * _GL_W
+
+
+class Motion:
+    """Imposed motion of a joint coordinate (a rheonomic constraint; Adams MOTION).
+
+    Give exactly one of ``displacement(t)`` [m or rad], ``velocity(t)`` or ``acceleration(t)``
+    (JAX-traceable functions of time). The coordinate is that of the joint's marker I relative
+    to J: the angle about z_J for a Revolute/Cylindrical (``dof="rotation"``) or the translation
+    along z_J for a Prismatic/Cylindrical (``dof="translation"``). Velocity and acceleration
+    forms are integrated from the modelled pose (20-point Gauss-Legendre, exact for polynomials
+    up to degree 39), with ``initial_velocity`` for the acceleration form. The driving force or
+    torque is reported by ``result.motion(name).effort``.
+    """
+
+    def __init__(self, name, joint, displacement=None, velocity=None, acceleration=None, dof=None, initial_velocity=0.0):
+        self.name = name
+        self.joint_ref = joint
+        given = [x is not None for x in (displacement, velocity, acceleration)]
+        if sum(given) != 1:
+            raise ModelError(f"Motion '{name}': give exactly one of displacement=, velocity= or acceleration= (functions of t).")
+        for what, f in (("displacement", displacement), ("velocity", velocity), ("acceleration", acceleration)):
+            if f is not None and not callable(f):
+                raise ModelError(f"Motion '{name}': {what} must be a function of time t, got {f!r}.")
+        self.displacement, self.velocity, self.acceleration = displacement, velocity, acceleration
+        self.dof = dof
+        self.initial_velocity = finite_scalar(f"Motion '{name}' initial_velocity", initial_velocity)
+        self.marker_i = self.marker_j = None
+        self.equations = []
+
+    @property
+    def n_equations(self):
+        return 1
+
+    def resolve(self, joint):
+        if self.dof is None:
+            self.dof = "rotation" if joint.dof_rotation and not joint.dof_translation else (
+                "translation" if joint.dof_translation and not joint.dof_rotation else None
+            )
+            if self.dof is None:
+                if joint.dof_rotation:
+                    raise ModelError(
+                        f"Motion '{self.name}': joint '{joint.name}' ({joint.kind}) has both a rotation and a translation; "
+                        "give dof='rotation' or dof='translation'."
+                    )
+                raise ModelError(
+                    f"Motion '{self.name}': joint '{joint.name}' ({joint.kind}) has no rotational or translational "
+                    "degree of freedom about/along its axis that a motion could drive (use a Revolute, Prismatic or Cylindrical)."
+                )
+        if self.dof == "rotation" and not joint.dof_rotation or self.dof == "translation" and not joint.dof_translation:
+            raise ModelError(
+                f"Motion '{self.name}': joint '{joint.name}' ({joint.kind}) has no {self.dof} degree of freedom to drive."
+            )
+        if self.dof not in ("rotation", "translation"):
+            raise ModelError(f"Motion '{self.name}': dof must be 'rotation' or 'translation', got {self.dof!r}.")
+        self.joint = joint
+        self.marker_i, self.marker_j = joint.marker_i, joint.marker_j
+        rot = self.dof == "rotation"
+        self.equations = [("drv", rot, self.function(), "angle" if rot else "translation")]
+
+    def function(self):
+        import jax.numpy as jnp
+
+        if self.displacement is not None:
+            return self.displacement
+        x, w = jnp.asarray(_GL_X), jnp.asarray(_GL_W)
+        if self.velocity is not None:
+            f = self.velocity
+            return lambda t: t * jnp.sum(w * jnp.stack([jnp.asarray(f(t * xi)) for xi in _GL_X]))
+        f, v0 = self.acceleration, self.initial_velocity
+        return lambda t: v0 * t + t * t * jnp.sum(w * (1.0 - x) * jnp.stack([jnp.asarray(f(t * xi)) for xi in _GL_X]))
+
+    def __repr__(self):
+        return f"Motion({self.name!r})"
+
+
+class JointActuator:
+    """A torque (rotational joint) or force (prismatic joint) on marker I about/along z_J, reaction on J.
+
+    ``effort`` is a constant, a function ``f(t)`` / ``f(t, state)``, or None when a controller
+    drives it (``PID(..., actuator=name)``). With ``drive=`` (a :class:`proleg.drives.DCMotorDrive`)
+    the commanded leg torque is saturated by the motor, amplifier and battery (seed 003 Eqs. 3-14).
+    ``limit`` clips the effort symmetrically [N m or N].
+    """
+
+    kind = "joint_actuator"
+
+    def __init__(self, name, joint, effort=None, limit=None, drive=None, dof=None):
+        self.name, self.joint_ref, self.effort, self.drive, self.dof = name, joint, effort, drive, dof
+        self.limit = None if limit is None else finite_scalar(f"JointActuator '{name}' limit", limit, positive=True)
+        if effort is not None and not callable(effort):
+            self.effort_value = finite_scalar(f"JointActuator '{name}' effort", effort)
+        else:
+            self.effort_value = 0.0
+        self.controller = None
+
+
+class TranslationalActuator:
+    """A force along the line I–J (a hydraulic cylinder's force): positive pushes I away from J.
+
+    ``force`` is a constant, ``f(t)`` / ``f(t, state)``, or None when a controller drives it.
+    """
+
+    kind = "translational_actuator"
+
+    def __init__(self, name, i, j, force=None):
+        for role, m in (("i", i), ("j", j)):
+            if not isinstance(m, Marker):
+                raise ModelError(f"TranslationalActuator '{name}': {role} must be a Marker, got {m!r}.")
+        self.name, self.i, self.j, self.force = name, i, j, force
+        self.force_value = 0.0 if (force is None or callable(force)) else finite_scalar(f"TranslationalActuator '{name}' force", force)
+        self.controller = None
+
+
+class HydraulicActuator:
+    """Hydraulic cylinder as a spring-damper whose set force is moved by the servo (seed 000, Table 2).
+
+    Between rod marker I and cylinder marker J: f = −k (ℓ − ℓ0) − c ℓ̇ + F_cmd along the line J→I
+    (positive pushes apart). ℓ0 is the modelled length (``free_length`` overrides it). F_cmd
+    comes from a controller (``PID(..., actuator=name, lever_arm=...)``: joint torque / lever
+    arm), optionally through a first-order servo-valve lag of ``valve_time_constant`` [s]
+    (discretised exactly at the controller's sample period).
+
+    Parameters
+    ----------
+    stiffness : float [N/m]   damping : float [N s/m]   (seed 000 Table 2: identified k and c)
+    """
+
+    kind = "hydraulic_actuator"
+
+    def __init__(self, name, i, j, stiffness, damping, free_length=None, valve_time_constant=None, force_limit=None):
+        for role, m in (("i", i), ("j", j)):
+            if not isinstance(m, Marker):
+                raise ModelError(f"HydraulicActuator '{name}': {role} must be a Marker, got {m!r}.")
+        self.name, self.i, self.j = name, i, j
+        self.stiffness = finite_scalar(f"HydraulicActuator '{name}' stiffness", stiffness, nonnegative=True, unit="N/m")
+        self.damping = finite_scalar(f"HydraulicActuator '{name}' damping", damping, nonnegative=True, unit="N s/m")
+        ell = float(np.linalg.norm(i.position - j.position))
+        if ell < 1e-9:
+            raise ModelError(f"HydraulicActuator '{name}': markers I and J coincide; the line of action is undefined.")
+        self.free_length = ell if free_length is None else finite_scalar(f"HydraulicActuator '{name}' free_length", free_length, positive=True)
+        self.valve_time_constant = (
+            None if valve_time_constant is None else finite_scalar(f"HydraulicActuator '{name}' valve_time_constant", valve_time_constant, positive=True, unit="s")
+        )
+        self.force_limit = None if force_limit is None else finite_scalar(f"HydraulicActuator '{name}' force_limit", force_limit, positive=True)
+        self.controller = None
+
+
+class PID:
+    """Discrete PID joint servo with zero-order hold (seed 000: P = 150 or 300 N m/rad, D = 6 N m s/rad).
+
+    Every ``period`` [s] (1 kHz default) it samples the joint coordinate θ (I relative to J) and
+    its rate, and holds u = kp (θ_set − θ) + ki ∫(θ_set − θ) dt − kd θ̇ [N m or N] (derivative on
+    the measurement, no kick). u drives ``actuator`` (a JointActuator, TranslationalActuator or
+    HydraulicActuator, by name); with a cylinder, the force command is u / ``lever_arm(θ)`` [m]
+    (a float or a function of θ). Without ``actuator`` the PID applies u on its own joint.
+    ``setpoint``: a constant or a function of t; ``None`` holds the initial coordinate.
+    ``output_limit`` clips u.
+    """
+
+    kind = "pid"
+
+    def __init__(self, name, joint, kp, kd=0.0, ki=0.0, setpoint=None, period=1e-3, actuator=None, lever_arm=None, output_limit=None, dof=None):
+        who = f"PID '{name}'"
+        self.name, self.joint_ref, self.actuator_ref, self.dof = name, joint, actuator, dof
+        self.kp = finite_scalar(f"{who} kp", kp)
+        self.kd = finite_scalar(f"{who} kd", kd)
+        self.ki = finite_scalar(f"{who} ki", ki)
+        self.period = finite_scalar(f"{who} period", period, unit="s")
+        if not self.period > 0:
+            raise ModelError(f"{who}: the sample period must be positive [s], got {self.period}. 1e-3 is a 1 kHz servo.")
+        self.setpoint = setpoint
+        if setpoint is not None and not callable(setpoint):
+            finite_scalar(f"{who} setpoint", setpoint)
+        if lever_arm is not None and not callable(lever_arm):
+            lever_arm = finite_scalar(f"{who} lever_arm", lever_arm, unit="m")
+            if lever_arm == 0:
+                raise ModelError(f"{who}: lever_arm is zero.")
+        self.lever_arm = lever_arm
+        self.output_limit = None if output_limit is None else finite_scalar(f"{who} output_limit", output_limit, positive=True)
+
+
+class DiscreteController:
+    """A general sampled controller: ``update(t, state, z) -> (z_new, outputs)`` every ``period``.
+
+    ``z0``: initial internal state (1D array); ``outputs`` is a dict actuator name → command,
+    held until the next sample. ``state`` gives the same accessors as force functions plus
+    ``state.joint_angle(name)``, ``state.joint_rate(name)``, ``state.contact_force(name)``.
+    Internal state is carried in the solver state, so jit, vmap and jacfwd work through it.
+    The :class:`StateMachine` is built on it.
+    """
+
+    kind = "discrete"
+
+    def __init__(self, name, update, z0, outputs, period=1e-3):
+        self.name, self.update = name, update
+        self.z0 = np.atleast_1d(np.asarray(z0, float))
+        self.outputs = list(outputs)
+        self.period = finite_scalar(f"DiscreteController '{name}' period", period, unit="s")
+        if not self.period > 0:
+            raise ModelError(f"DiscreteController '{name}': the sample period must be positive [s], got {self.period}.")
+        if not callable(update):
+            raise ModelError(f"DiscreteController '{name}': update must be a function (t, state, z) -> (z, outputs).")
