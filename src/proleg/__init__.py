@@ -72,3 +72,5 @@ from .model.control import JointActuator as JointActuator
 from .model.control import Motion as Motion
 from .model.control import TranslationalActuator as TranslationalActuator
 from . import fn as fn
+from .model.control import StateMachine as StateMachine
+from .model.forces import RotationalBacklash as RotationalBacklash

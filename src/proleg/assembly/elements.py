@@ -274,3 +274,52 @@ class PartLoadGroup(AbstractGroup):
         val = self._values(P, t, ctx)
         vel = self.oh @ (mk.v if self.kind == "force" else mk.w)
         return {self.kind: (val, "N" if self.kind == "force" else "N m"), "power": (jnp.sum(val * vel, -1), "W")}
+
+
+class RotationalBacklashGroup(RotationalSpringDamperGroup):
+    """Dead band + spring-damper about z_J (seed 003 Model II); smooth C1 contact gate."""
+
+    kind = "rotational_backlash"
+
+    def params(self):
+        e = self.elements
+        return {
+            "rotational_backlash_stiffness": np.array([x.stiffness for x in e]),
+            "rotational_backlash_damping": np.array([x.damping for x in e]),
+            "rotational_backlash_free_angle": np.array([x.free_angle for x in e]),
+            "rotational_backlash_half_gap": np.array([x.half_gap for x in e]),
+            "rotational_backlash_width": np.array([x.width for x in e]),
+        }
+
+    def _bl(self, P, mk):
+        from ..drives.backlash import deadband_smooth
+
+        R9 = mk.R.reshape(-1, 9)
+        RI = (self.oh_i @ R9).reshape(-1, 3, 3)
+        RJ = (self.oh_j @ R9).reshape(-1, 3, 3)
+        z = RJ[:, :, 2]
+        th = joint_angle(RI, RJ) - P["rotational_backlash_free_angle"]
+        rate = jnp.sum(z * (self.oh_i @ mk.w - self.oh_j @ mk.w), -1)
+        w = jnp.maximum(P["rotational_backlash_width"], 1e-12)
+        delta, gate = deadband_smooth(th, P["rotational_backlash_half_gap"], w)
+        tq = -P["rotational_backlash_stiffness"] * delta - gate * P["rotational_backlash_damping"] * rate
+        return z, th, rate, delta, gate, tq
+
+    def loads(self, P, mk, t, ctx):
+        z, _, _, _, _, tq = self._bl(P, mk)
+        T = tq[:, None] * z
+        rI, rJ, _, _ = self._ends(mk)
+        return pair_loads(self.oh_i, self.oh_j, jnp.zeros_like(T), T, rI - rJ)
+
+    def potential(self, P, mk, t, ctx):
+        _, _, _, delta, _, _ = self._bl(P, mk)
+        return jnp.sum(0.5 * P["rotational_backlash_stiffness"] * delta**2)
+
+    def dissipation(self, P, mk, t, ctx):
+        # Exact accounting: −τ θ̇ − dV/dt (dV/dθ = k δ s differs from k δ inside the smoothing band).
+        _, _, rate, delta, gate, tq = self._bl(P, mk)
+        return jnp.sum(-tq * rate - P["rotational_backlash_stiffness"] * delta * gate * rate)
+
+    def outputs(self, P, mk, t, ctx):
+        z, th, rate, delta, gate, tq = self._bl(P, mk)
+        return {"torque": (tq, "N m"), "angle": (th, "rad"), "deflection": (delta, "rad"), "engaged": (gate, "-"), "velocity": (rate, "rad/s")}

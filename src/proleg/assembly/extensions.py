@@ -161,7 +161,7 @@ class ControllerGroup(AbstractGroup):
         from .system import StateView, kinematics
 
         bk, mk = kinematics(system, q, v)
-        view = StateView(system.topo, bk, mk, t, z)
+        view = StateView(system.topo, bk, mk, t, z, system.params)
         pids = [e for e in self.elements if e.kind == "pid"]
         if pids:
             th, th_d, _, _ = joint_coordinate(self.pid_oh_i, self.pid_oh_j, self.pid_rot, mk)
@@ -248,6 +248,10 @@ class JointActuatorGroup(TwoMarkerGroup, _CommandMixin):
                 from ..drives.dcmotor import delivered_torque
 
                 uk = delivered_torque(e.drive, uk, xd[k]).torque
+            if e.gear is not None:
+                from ..drives.gears import output_torque
+
+                uk = output_torque(e.gear, uk, xd[k], e.gear_speed_eps)
             if e.limit is not None:
                 uk = jnp.clip(uk, -e.limit, e.limit)
             outs.append(uk)

@@ -16,11 +16,11 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ModelError
-from ..model.forces import Bushing, Force, RotationalSpringDamper, SpringDamper, Torque
+from ..model.forces import Bushing, Force, RotationalBacklash, RotationalSpringDamper, SpringDamper, Torque
 from ..model.model import Model
 from ..spatial.rotation import G_of_p, L_of_p, p_from_matrix
 from .constraints import ConstraintTopology, build_constraint_topology, constraint_values
-from .elements import BushingGroup, PartLoadGroup, RotationalSpringDamperGroup, SpringDamperGroup
+from .elements import BushingGroup, PartLoadGroup, RotationalBacklashGroup, RotationalSpringDamperGroup, SpringDamperGroup
 from .kinematics import body_kin, marker_kin
 
 
@@ -140,8 +140,8 @@ class System:
 class StateView:
     """What user force/torque/motion functions see: ``state.position('upper')`` etc. (traceable)."""
 
-    def __init__(self, topo: Topology, bk, mk, t, z=None):
-        self._topo, self._bk, self._mk, self.t, self.z = topo, bk, mk, t, z
+    def __init__(self, topo: Topology, bk, mk, t, z=None, params=None):
+        self._topo, self._bk, self._mk, self.t, self.z, self._P = topo, bk, mk, t, z, params
 
     def _b(self, part):
         name = getattr(part, "name", part)
@@ -180,6 +180,42 @@ class StateView:
     def marker_orientation(self, marker):
         return self._mk.R[self._m(marker)]
 
+    def _joint_markers(self, joint):
+        name = getattr(joint, "name", joint)
+        for j in self._topo.joints:
+            if j.name == name:
+                return self._m(j.marker_i.name), self._m(j.marker_j.name)
+        raise ModelError(f"State access: no joint named '{name}'.")
+
+    def joint_angle(self, joint):
+        """Rotation [rad] of the joint's marker I relative to J about z_J."""
+        from .constraints import joint_angle
+
+        i, j = self._joint_markers(joint)
+        return joint_angle(self._mk.R[i], self._mk.R[j])
+
+    def joint_rate(self, joint):
+        """d/dt of :meth:`joint_angle` [rad/s]."""
+        i, j = self._joint_markers(joint)
+        return jnp.dot(self._mk.R[j][:, 2], self._mk.w[i] - self._mk.w[j])
+
+    def joint_translation(self, joint):
+        from .constraints import joint_translation
+
+        i, j = self._joint_markers(joint)
+        return joint_translation(self._mk.r[i], self._mk.r[j], self._mk.R[j])
+
+    def contact_force(self, contact):
+        """Normal force [N] of a contact (for touchdown / lift-off guards)."""
+        name = getattr(contact, "name", contact)
+        for g in self._topo.extensions:
+            if g.kind == "contact" and name in g.names:
+                from types import SimpleNamespace
+
+                out = g.outputs(self._P, self._mk, self.t, self)
+                return out["normal_force"][0][g.names.index(name)]
+        raise ModelError(f"State access: no contact named '{name}'.")
+
 
 def kinematics(system: System, q, v=None):
     topo, P = system.topo, system.params
@@ -209,7 +245,7 @@ def mass_action(system: System, q, qdd):
 def element_loads(system: System, bk, mk, t, z=None):
     """Per-marker force and torque accumulations (ground) from all force elements."""
     topo, P = system.topo, system.params
-    ctx = StateView(topo, bk, mk, t, z)
+    ctx = StateView(topo, bk, mk, t, z, P)
     nm = len(topo.marker_names)
     Fm = jnp.zeros((nm, 3))
     Tm = jnp.zeros((nm, 3))
@@ -256,7 +292,7 @@ def kinetic_energy(system: System, q, v):
 def potential_energy(system: System, q, t=0.0, z=None):
     topo, P = system.topo, system.params
     bk, mk = kinematics(system, q)
-    ctx = StateView(topo, bk, mk, t, z)
+    ctx = StateView(topo, bk, mk, t, z, P)
     vg = -jnp.sum(P["body_mass"] * (bk.r[:-1] @ P["gravity"]))
     return vg + sum(g.potential(P, mk, t, ctx) for g in topo.groups + topo.extensions if len(g))
 
@@ -265,7 +301,7 @@ def power_terms(system: System, q, v, t, z=None):
     """(dissipated power ≥ 0, input power of external loads) [W]."""
     topo, P = system.topo, system.params
     bk, mk = kinematics(system, q, v)
-    ctx = StateView(topo, bk, mk, t, z)
+    ctx = StateView(topo, bk, mk, t, z, P)
     gs = [g for g in topo.groups + topo.extensions if len(g)]
     d = sum((g.dissipation(P, mk, t, ctx) for g in gs), jnp.zeros(()))
     w = sum((g.input_power(P, mk, t, ctx) for g in gs), jnp.zeros(()))
@@ -293,6 +329,7 @@ GROUP_BUILDERS = [
     (SpringDamper, SpringDamperGroup),
     (RotationalSpringDamper, RotationalSpringDamperGroup),
     (Bushing, BushingGroup),
+    (RotationalBacklash, RotationalBacklashGroup),
 ]
 def _extension_hook(model, topo, marker_index, params):
     from .extensions import build_extensions
@@ -389,7 +426,7 @@ def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
 
     groups = []
     for cls, gcls in GROUP_BUILDERS:
-        elems = [f for f in model.forces if type(f) is cls or isinstance(f, cls)]
+        elems = [f for f in model.forces if type(f) is cls]
         groups.append(gcls(elems, marker_index, nm))
     for kind, cls in (("force", Force), ("torque", Torque)):
         groups.append(PartLoadGroup([f for f in model.forces if isinstance(f, cls)], marker_index, nm, kind))

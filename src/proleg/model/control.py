@@ -93,13 +93,18 @@ class JointActuator:
     ``effort`` is a constant, a function ``f(t)`` / ``f(t, state)``, or None when a controller
     drives it (``PID(..., actuator=name)``). With ``drive=`` (a :class:`proleg.drives.DCMotorDrive`)
     the commanded leg torque is saturated by the motor, amplifier and battery (seed 003 Eqs. 3-14).
-    ``limit`` clips the effort symmetrically [N m or N].
+    ``limit`` clips the effort symmetrically [N m or N]. With ``gear=`` (a
+    :class:`proleg.drives.GearTrain`) the command is the motor-side torque and the joint receives
+    ratio · η · τ (motor driving) or ratio · τ / η_back (back-driven), by the direction of power flow.
     """
 
     kind = "joint_actuator"
 
-    def __init__(self, name, joint, effort=None, limit=None, drive=None, dof=None):
+    def __init__(self, name, joint, effort=None, limit=None, drive=None, dof=None, gear=None, gear_speed_eps=1e-3):
         self.name, self.joint_ref, self.effort, self.drive, self.dof = name, joint, effort, drive, dof
+        self.gear, self.gear_speed_eps = gear, gear_speed_eps
+        if gear is not None and not (getattr(gear, "ratio", 0) and float(gear.ratio) != 0):
+            raise ModelError(f"JointActuator '{name}': gear ratio must be non-zero, got {getattr(gear, 'ratio', None)!r}.")
         self.limit = None if limit is None else finite_scalar(f"JointActuator '{name}' limit", limit, positive=True)
         if effort is not None and not callable(effort):
             self.effort_value = finite_scalar(f"JointActuator '{name}' effort", effort)
@@ -214,3 +219,58 @@ class DiscreteController:
             raise ModelError(f"DiscreteController '{name}': the sample period must be positive [s], got {self.period}.")
         if not callable(update):
             raise ModelError(f"DiscreteController '{name}': update must be a function (t, state, z) -> (z, outputs).")
+
+
+class StateMachine(DiscreteController):
+    """A sampled finite-state controller: each state has its own control law; guards switch states.
+
+    Parameters
+    ----------
+    states : dict name -> law(t, state, mem) -> dict actuator name -> command
+    transitions : list of (from_state, to_state, guard(t, state, mem) -> bool); the first guard
+        that holds (in list order) fires at a sample; events such as touchdown
+        (``state.contact_force("foot") > 5``), lift-off or a joint-angle limit are guards.
+    initial : name of the initial state
+    outputs : actuator names the laws drive (a law may leave some out: they get 0)
+    memory : number of extra scalars ``mem`` a law or guard may read (kept 0 here; the time the
+        current state was entered is available as ``state.t - entered``: ``mem[0]``)
+
+    The active state index is ``result.controller(name).state[:, 0]``. Everything is traced
+    (guards with jnp, no Python ``if`` on values), so jit, vmap and jacfwd work through it.
+    """
+
+    kind = "discrete"
+
+    def __init__(self, name, states, transitions, initial, outputs, period=1e-3):
+        if initial not in states:
+            raise ModelError(f"StateMachine '{name}': initial state '{initial}' is not one of {list(states)}.")
+        for tr in transitions:
+            if len(tr) != 3 or tr[0] not in states or tr[1] not in states or not callable(tr[2]):
+                raise ModelError(f"StateMachine '{name}': transition {tr!r} must be (from, to, guard) with known states {list(states)}.")
+        self.state_names = list(states)
+        self.laws = [states[k] for k in self.state_names]
+        self.transitions = [(self.state_names.index(a), self.state_names.index(b), g) for a, b, g in transitions]
+        outs = list(outputs)
+
+        def update(t, view, z):
+            import jax.numpy as jnp
+
+            mode, entered = z[0], z[1]
+            mem = jnp.stack([entered])
+            new_mode = mode
+            fired = jnp.asarray(False)
+            for a, b, guard in self.transitions:
+                hit = (~fired) & (mode == a) & jnp.asarray(guard(t, view, mem), bool)
+                new_mode = jnp.where(hit, b, new_mode)
+                fired = fired | hit
+            entered = jnp.where(new_mode != mode, t, entered)
+            mem = jnp.stack([entered])
+            cmds = {o: jnp.zeros(()) for o in outs}
+            for k, law in enumerate(self.laws):
+                vals = law(t, view, mem)
+                for o in outs:
+                    if o in vals:
+                        cmds[o] = jnp.where(new_mode == k, jnp.asarray(vals[o], jnp.float64), cmds[o])
+            return jnp.stack([new_mode, entered]), cmds
+
+        super().__init__(name, update, [float(self.state_names.index(initial)), 0.0], outs, period)

@@ -208,3 +208,22 @@ class Torque(_PartLoad):
 
     kind = "torque"
     unit = "N m"
+
+
+class RotationalBacklash(RotationalSpringDamper):
+    """Rotational compliance with backlash (seed 003 Model II hip unit: belt + gear play).
+
+    Torque on I about z_J: zero inside the dead band |θ − θ0| ≤ ``half_gap``; outside,
+    −k (θ − θ0 ∓ half_gap) − c θ̇ (damping only while engaged). The transition is smoothed over
+    ``width`` [rad] (C1 contact gate; exact outside ``half_gap ± width/2``).
+    """
+
+    kind = "rotational_backlash"
+
+    def __init__(self, name, i=None, j=None, *, joint=None, stiffness=0.0, damping=0.0, half_gap=0.0, width=None, free_angle=0.0):
+        super().__init__(name, i, j, joint=joint, stiffness=stiffness, damping=damping, free_angle=free_angle)
+        self.half_gap = finite_scalar(f"RotationalBacklash '{name}' half_gap", half_gap, nonnegative=True, unit="rad")
+        w = 0.2 * self.half_gap if width is None else width
+        self.width = finite_scalar(f"RotationalBacklash '{name}' width", w, nonnegative=True, unit="rad")
+        if self.width > 2 * self.half_gap:
+            raise ModelError(f"RotationalBacklash '{name}': width ({self.width}) must be ≤ 2·half_gap ({2 * self.half_gap}).")

@@ -1,0 +1,159 @@
+"""The ``proleg`` command line (typer). Thin: every command calls the library."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+app = typer.Typer(add_completion=False, no_args_is_help=True, help="proleg: virtual prototyping of legged robots.")
+console = Console(stderr=True)
+
+# name -> (module, function, description); scenarios write into results/<name>/ by default
+SCENARIOS = {
+    "hyq-drop": ("proleg.robots.hyq_tests", "run_drop", "HyQ leg drop test: rigid vs 4 vs 8 bushings, HTML report (main job)"),
+    "hyq-static": ("proleg.robots.hyq_tests", "run_static", "HyQ leg static test, payload 0/3/7 kg"),
+    "hyq-quasistatic": ("proleg.robots.hyq_tests", "run_quasistatic", "HyQ leg quasi-static cycles: force-stroke loops"),
+}
+
+
+def _version(value: bool):
+    if value:
+        from proleg import __version__
+
+        typer.echo(f"proleg {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def main(version: bool = typer.Option(False, "--version", callback=_version, is_eager=True, help="Print the version.")):
+    """proleg: virtual prototyping of legged robots (multibody dynamics in JAX, float64)."""
+
+
+def _load(model_path: Path):
+    from proleg.errors import ModelError
+    from proleg.io import load_model_file
+
+    try:
+        return load_model_file(model_path)
+    except ModelError as exc:
+        console.print(f"[red]error:[/] {exc}")
+        raise typer.Exit(2) from None
+
+
+@app.command()
+def info(model: Path = typer.Argument(..., help="Model file (YAML)."), json_out: bool = typer.Option(False, "--json")):
+    """Parts, markers, joints, elements, degrees of freedom (Gruebler and Jacobian rank), redundant constraints."""
+    import warnings
+
+    import proleg as pl
+    from proleg.assembly.system import dof_report
+
+    mdl, _ = _load(model)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        system = pl.assemble(mdl)
+    dof = dof_report(system)
+    data = {
+        "model": mdl.name,
+        "parts": [p.name for p in mdl.parts],
+        "markers": [m.name for m in mdl.markers],
+        "joints": [f"{j.name} ({j.kind})" for j in mdl.joints],
+        "forces": [f"{f.name} ({f.kind})" for f in mdl.forces],
+        "contacts": [c.name for c in mdl.contacts],
+        "motions": [m.name for m in mdl.motions],
+        "controllers": [c.name for c in mdl.controllers],
+        "dof_gruebler": dof["gruebler"],
+        "dof_rank": dof["rank"],
+        "redundant": [f"{j}: {lab}" for j, lab in dof["redundant"]],
+    }
+    if json_out:
+        typer.echo(json.dumps(data))
+        return
+    t = Table(title=f"model '{mdl.name}'", show_header=False)
+    for k, v in data.items():
+        t.add_row(k, ", ".join(map(str, v)) if isinstance(v, list) else str(v))
+    Console().print(t)
+
+
+@app.command()
+def simulate(
+    model: Path = typer.Argument(..., help="Model file (YAML)."),
+    t_end: float = typer.Option(None, "--t-end", help="End time [s] (default: the file's simulate.t_end)."),
+    dt_output: float = typer.Option(None, "--dt-output", help="Output interval [s]."),
+    out: Path = typer.Option(Path("result.parquet"), "--out", help="Parquet file to write."),
+    rtol: float = typer.Option(None, "--rtol"),
+):
+    """Simulate a model file and write the time histories to Parquet (units in column names)."""
+    import proleg as pl
+    from proleg.errors import SolverError
+
+    mdl, opts = _load(model)
+    t_end = t_end if t_end is not None else opts.get("t_end")
+    if t_end is None:
+        console.print("[red]error:[/] give --t-end or a 'simulate: {t_end: ...}' section in the model file.")
+        raise typer.Exit(2)
+    kw = {}
+    dt = dt_output if dt_output is not None else opts.get("dt_output")
+    if rtol is not None or opts.get("rtol") is not None:
+        kw["rtol"] = rtol if rtol is not None else opts["rtol"]
+    if opts.get("atol") is not None:
+        kw["atol"] = opts["atol"]
+    system = pl.assemble(mdl)
+    try:
+        res = pl.simulate(system, t_end=t_end, dt_output=dt, progress=True, **kw)
+    except SolverError as exc:
+        if exc.result is not None and len(exc.result.t) > 1:
+            exc.result.to_parquet(out)
+            console.print(f"[yellow]partial results ({len(exc.result.t)} outputs) written to {out}[/]")
+        console.print(f"[red]solver stopped:[/] {exc}")
+        raise typer.Exit(1) from None
+    res.to_parquet(out)
+    console.print(f"{res}\nwrote {out}")
+
+
+@app.command()
+def run(
+    scenario: str = typer.Argument(..., help="Scenario name; `proleg run list` shows them."),
+    out_dir: Path = typer.Option(None, "--out-dir", help="Output folder (default results/<scenario>)."),
+):
+    """Run a built-in virtual test of a source paper's system and write its results and report."""
+    import importlib
+
+    if scenario == "list" or scenario not in SCENARIOS:
+        t = Table(title="scenarios")
+        t.add_column("name")
+        t.add_column("what")
+        for k, (_, _, d) in SCENARIOS.items():
+            t.add_row(k, d)
+        Console().print(t)
+        if scenario != "list":
+            console.print(f"[red]error:[/] unknown scenario '{scenario}'. Valid: {', '.join(SCENARIOS)}")
+            raise typer.Exit(2)
+        return
+    mod, fn, _ = SCENARIOS[scenario]
+    target = getattr(importlib.import_module(mod), fn)
+    out_dir = out_dir or Path("results") / scenario
+    out_dir.mkdir(parents=True, exist_ok=True)
+    path = target(out_dir)
+    console.print(f"[green]done:[/] {path}")
+
+
+def _register_optional():
+    for modname in ("proleg.cli.prbm", "proleg.cli.identify"):
+        try:
+            mod = __import__(modname, fromlist=["register"])
+        except ImportError as exc:  # pragma: no cover - a broken optional module must not kill the CLI
+            print(f"proleg: {modname} unavailable: {exc}", file=sys.stderr)
+            continue
+        mod.register(app)
+
+
+_register_optional()
+
+if __name__ == "__main__":
+    app()
