@@ -247,3 +247,55 @@ def register(app: typer.Typer) -> None:
     """Add ``identify`` (sub-commands hysteresis, drop, battery) and ``validate`` to the main app."""
     app.add_typer(identify_app, name="identify")
     app.command("validate")(validate_cmd)
+
+
+@identify_app.command("fit")
+@_data_errors
+def fit_cmd(
+    model: Path = typer.Argument(..., help="Model file (YAML)."),
+    data: Path = typer.Argument(..., help="Experiment CSV or Parquet."),
+    params: str = typer.Option(..., "--params", help="Comma-separated parameters, e.g. 'spring.stiffness,spring.damping'."),
+    map_: str = typer.Option(..., "--map", help="column=signal pairs, e.g. 'z_mm=mass.z' (signal specs: part.x, joint.angle, element.output)."),
+    time_col: str = typer.Option("time", "--time", help="Time column."),
+    units: str = typer.Option("", "--units", help="Units per column, e.g. 'time=ms,z_mm=mm'."),
+    rtol: float = typer.Option(1e-7, "--rtol", help="Simulation tolerance during the fit."),
+    figure: Path = typer.Option(None, "--figure", help="Write the measured-vs-fitted overlay here."),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON object."),
+):
+    """Fit model parameters to a measured time series through the differentiable simulator (Levenberg-Marquardt)."""
+    import json as _json
+
+    import numpy as np
+
+    import proleg as pl
+    from proleg.identify.data import load_record
+    from proleg.identify.fit import fit, plot_fit
+    from proleg.io import load_model_file
+
+    from proleg.errors import ModelError
+
+    try:
+        pairs = [p.split("=", 1) for p in map_.split(",") if p.strip()]
+        if not pairs or any(len(p) != 2 for p in pairs):
+            raise DataError(f"--map '{map_}': give column=signal pairs separated by commas.")
+        unit_map = dict(p.split("=", 1) for p in units.split(",") if p.strip())
+        roles = {col: col for col, _ in pairs}
+        roles["time"] = time_col
+        rec = load_record(data, roles, units={("time" if k == time_col else k): v for k, v in unit_map.items()})
+        mdl, _ = load_model_file(model)
+        system = pl.assemble(mdl)
+        t = np.asarray(rec.data["time"])
+        measured = {sig: np.asarray(rec.data[col]) for col, sig in pairs}
+        res = fit(system, [p.strip() for p in params.split(",")], t, measured, simulate_kw=dict(rtol=rtol, atol=rtol * 1e-1))
+        if figure is not None:
+            fig = plot_fit(res, t, measured, simulate_kw=dict(rtol=rtol, atol=rtol * 1e-1))
+            fig.savefig(figure, dpi=120)
+    except ModelError as exc:
+        _fail(str(exc))
+    if json_out:
+        typer.echo(_json.dumps({"params": dict(zip(res.names, map(float, res.values))), "stderr": dict(zip(res.names, map(float, res.stderr))), "rms": res.rms, "evaluations": res.iterations, "success": res.success}))
+        return
+    from rich.console import Console
+
+    Console().print(res.table().to_string(index=False))
+    Console().print(f"rms residual {res.rms:.4g} (weighted), {res.iterations} evaluations: {res.message}")

@@ -29,3 +29,7 @@ from .stats import Interval as Interval
 from .stats import mean_interval as mean_interval
 from .stats import repetition_check as repetition_check
 from .stats import repetitions_table as repetitions_table
+from .fit import FitResult as FitResult
+from .fit import fit as fit
+from .fit import plot_fit as plot_fit
+from .fit import signal as signal
