@@ -16,17 +16,46 @@ from ..spatial.rotation import L_of_p, euler_zyx_deg
 from ..solvers.initial import kkt_accelerations
 
 
-@dataclass
 class PartResult:
-    name: str
-    position: np.ndarray  # (n, 3) [m] COM, ground
-    quaternion: np.ndarray  # (n, 4) Euler parameters (scalar first)
-    orientation: np.ndarray  # (n, 3, 3) part axes → ground
-    euler_deg: np.ndarray  # (n, 3) yaw-pitch-roll (Z-Y'-X'') [deg]
-    velocity: np.ndarray  # (n, 3) [m/s]
-    angular_velocity: np.ndarray  # (n, 3) [rad/s], ground components
-    acceleration: np.ndarray  # (n, 3) [m/s^2]
-    angular_acceleration: np.ndarray  # (n, 3) [rad/s^2], ground components
+    """Time histories of one part (ground frame). Accelerations are computed on first access.
+
+    position (n, 3) [m] COM · quaternion (n, 4) Euler parameters, scalar first · orientation
+    (n, 3, 3) part axes → ground · euler_deg (n, 3) yaw-pitch-roll (Z-Y'-X'') [deg] · velocity
+    (n, 3) [m/s] · angular_velocity (n, 3) [rad/s] · acceleration (n, 3) [m/s²] ·
+    angular_acceleration (n, 3) [rad/s²]
+    """
+
+    def __init__(self, result, name, b):
+        self._res, self.name, self._b = result, name, b
+        q = result.q[:, 7 * b : 7 * b + 7]
+        v = result.v[:, 7 * b : 7 * b + 7]
+        self._p = q[:, 3:]
+        self.position = result._np(q[:, :3])
+        self.quaternion = result._np(self._p)
+        self.velocity = result._np(v[:, :3])
+        from ..spatial.rotation import G_of_p
+
+        self._G = G_of_p(self._p)
+        self.angular_velocity = result._np(2.0 * jnp.einsum("nij,nj->ni", self._G, v[:, 3:]))
+
+    @cached_property
+    def orientation(self):
+        from ..spatial.rotation import A_of_p
+
+        return self._res._np(A_of_p(self._p))
+
+    @cached_property
+    def euler_deg(self):
+        return None if isinstance(self._p, jax.core.Tracer) else euler_zyx_deg(np.asarray(self._p))
+
+    @cached_property
+    def acceleration(self):
+        return self._res._np(self._res.qdd[:, 7 * self._b : 7 * self._b + 3])
+
+    @cached_property
+    def angular_acceleration(self):
+        a = self._res.qdd[:, 7 * self._b + 3 : 7 * self._b + 7]
+        return self._res._np(2.0 * jnp.einsum("nij,nj->ni", self._G, a))  # Ġṗ = 0
 
 
 @dataclass
@@ -105,27 +134,7 @@ class Result:
     # -- parts ---------------------------------------------------------------------------------
     def part(self, name) -> PartResult:
         b = self._index(self.system.topo.body_names, name, "part")
-        q = self.q[:, 7 * b : 7 * b + 7]
-        v = self.v[:, 7 * b : 7 * b + 7]
-        a = self.qdd[:, 7 * b : 7 * b + 7]
-        p = q[:, 3:]
-        from ..spatial.rotation import A_of_p, G_of_p
-
-        A = A_of_p(p)
-        G = G_of_p(p)
-        w = 2.0 * jnp.einsum("nij,nj->ni", G, v[:, 3:])
-        wd = 2.0 * jnp.einsum("nij,nj->ni", G, a[:, 3:])  # Ġṗ = 0
-        return PartResult(
-            name=str(getattr(name, "name", name)),
-            position=self._np(q[:, :3]),
-            quaternion=self._np(p),
-            orientation=self._np(A),
-            euler_deg=euler_zyx_deg(np.asarray(p)) if not isinstance(p, jax.core.Tracer) else None,
-            velocity=self._np(v[:, :3]),
-            angular_velocity=self._np(w),
-            acceleration=self._np(a[:, :3]),
-            angular_acceleration=self._np(wd),
-        )
+        return PartResult(self, str(getattr(name, "name", name)), b)
 
     # -- markers -------------------------------------------------------------------------------
     @cached_property

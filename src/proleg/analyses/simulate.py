@@ -27,8 +27,7 @@ def _any_traced(tree) -> bool:
     return any(is_traced(x) for x in jax.tree_util.tree_leaves(tree))
 
 
-@partial(jax.jit, static_argnums=(4,))
-def _ic(system: System, q_user, v_user, t0, n_iter: int = 8):
+def _ic_positions(system: System, q_user, t0, n_iter: int):
     nb = system.topo.nbody
     q_user = _normalize_p(q_user, nb)
 
@@ -41,38 +40,49 @@ def _ic(system: System, q_user, v_user, t0, n_iter: int = 8):
         return _normalize_p(q + dx[:nq], nb), None
 
     q, _ = jax.lax.scan(gn, q_user, None, length=n_iter)
-    res = jnp.max(jnp.abs(constraints(system, q, t0)))
+    return q, jnp.max(jnp.abs(constraints(system, q, t0)))
+
+
+@partial(jax.jit, static_argnums=(4,))
+def _ic(system: System, q_user, v_user, t0, n_iter: int, z0):
+    """One compiled initial-conditions analysis: positions (Gauss-Newton), velocities (M-weighted
+    projection), a controller sample at t0, accelerations and multipliers (KKT), powers."""
+    q, res = _ic_positions(system, q_user, t0, n_iter)
     M = mass_matrix(system, q)
     Pq = jax.jacfwd(lambda qq: constraints(system, qq, t0))(q)
     Pt = jax.jacfwd(lambda tt: constraints(system, q, tt))(t0)
     nq, nc = q.shape[0], Pq.shape[0]
     S = jnp.block([[M, Pq.T], [Pq, jnp.zeros((nc, nc))]])
     v = jnp.linalg.solve(S, jnp.concatenate([M @ v_user, -Pt]))[:nq]
-    return q, v, res
+    z = sample_controllers(system, t0, q, v, z0, True)
+    qdd, lam = kkt_accelerations(system, q, v, t0, z)
+    return q, v, qdd, lam, z, power_terms(system, q, v, t0, z), res
 
 
 def consistent_state(system: System, q_user=None, v_user=None, t0=0.0, z0=None, tol=1e-10):
-    """Initial (q, v, q̈, λ) satisfying the constraints at position, velocity and acceleration level."""
+    """Initial (q, v, q̈, λ, z) satisfying the constraints at position, velocity and acceleration level."""
+    return _consistent_state(system, q_user, v_user, t0, z0, tol)[:5]
+
+
+def _consistent_state(system, q_user, v_user, t0, z0, tol=1e-10):
     q_user = system.params["q_init"] if q_user is None else jnp.asarray(q_user, jnp.float64)
     v_user = system.params["v_init"] if v_user is None else jnp.asarray(v_user, jnp.float64)
     t0 = jnp.asarray(t0, jnp.float64)
-    q, v, res = _ic(system, q_user, v_user, t0)
+    z0 = initial_z(system) if z0 is None else z0
+    q, v, qdd, lam, z, pw, res = _ic(system, q_user, v_user, t0, 8, z0)
     if not is_traced(res):
         tries = 0
         while float(res) > tol and tries < 6:
-            q, v, res = _ic(system, q, v_user, t0, 16)
+            q, v, qdd, lam, z, pw, res = _ic(system, q, v_user, t0, 8, z0)
             tries += 1
         if not float(res) <= tol:
-            row = int(jnp.argmax(jnp.abs(constraints(system, q, t0))))
+            row = int(jnp.argmax(jnp.abs(jax.jit(constraints)(system, q, t0))))
             elem, lab = system.topo.ct.labels[row]
             raise ConvergenceError(
                 f"Initial conditions: model '{system.topo.name}' cannot be assembled (constraint residual "
                 f"{float(res):.3g} in '{elem}', equation {lab}). Check joint locations and part poses."
             )
-    z = jnp.zeros(0) if z0 is None else z0
-    z = jax.jit(sample_controllers, static_argnums=(5,))(system, t0, q, v, z, True)
-    qdd, lam = jax.jit(kkt_accelerations)(system, q, v, t0, z)
-    return q, v, qdd, lam, z
+    return q, v, qdd, lam, z, pw
 
 
 def _ic_report(system, q, v):
@@ -167,9 +177,8 @@ def simulate(
         sample_period=sample_period(system),
     )
     z0 = initial_z(system)
-    q, v, qdd, lam, z0 = consistent_state(system, q0, v0, t0, z0)
+    q, v, qdd, lam, z0, pw = _consistent_state(system, q0, v0, t0, z0)
     traced = _any_traced((system.params, q))
-    pw = power_terms(system, q, v, t0, z0)
     st = StepState(
         t=jnp.asarray(t0, jnp.float64), q=q, v=v, a=qdd, qdd=qdd, lam=lam,
         h_prev=jnp.asarray(1.0), w=jnp.zeros(2), pw=pw, z=z0, g=jnp.zeros_like(q),

@@ -312,6 +312,9 @@ def constraint_jacobian(system: System, q, t):
     return jax.jacfwd(lambda qq: constraints(system, qq, t))(q)
 
 
+_jit_constraint_jacobian = jax.jit(constraint_jacobian)
+
+
 def initial_coordinates(model: Model):
     q, v = [], []
     for part in model.parts:
@@ -458,7 +461,7 @@ def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
     ct_full = build_constraint_topology(rows, nm, nb, owners)
     topo.ct = ct_full
     sys_full = System({k: jnp.asarray(v, dtype=jnp.float64) for k, v in params.items()}, topo)
-    Phi_q = np.asarray(constraint_jacobian(sys_full, jnp.asarray(q0), 0.0))
+    Phi_q = np.asarray(_jit_constraint_jacobian(sys_full, jnp.asarray(q0), 0.0))
     if not np.all(np.isfinite(Phi_q)):
         raise ModelError(f"Model '{model.name}': the constraint Jacobian is not finite at the modelled pose.")
     ordered = [r for k in ("sph", "dot1", "dot2", "screw", "drv") for r in rows if r["kind"] == k]
@@ -480,8 +483,9 @@ def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
     if ctrl is not None and "controller_setpoint0" in params:
         from .extensions import joint_coordinate
 
-        _, mk = kinematics(system, jnp.asarray(q0), jnp.asarray(v0))
-        th, _, _, _ = joint_coordinate(ctrl.pid_oh_i, ctrl.pid_oh_j, ctrl.pid_rot, mk)
+        th = jax.jit(lambda s, q, v: joint_coordinate(ctrl.pid_oh_i, ctrl.pid_oh_j, ctrl.pid_rot, kinematics(s, q, v)[1])[0])(
+            system, jnp.asarray(q0), jnp.asarray(v0)
+        )
         system = system.with_params(controller_setpoint0=th)
     return system
 
@@ -491,7 +495,7 @@ def dof_report(system: System) -> dict:
     topo = system.topo
     n_eq = sum(j.n_equations for j in topo.joints) + sum(len(getattr(m, "equations", [])) for m in topo.ct.owners[len(topo.joints):])
     q0 = system.params["q_init"]
-    Phi_q = np.asarray(constraint_jacobian(system, q0, 0.0))
+    Phi_q = np.asarray(_jit_constraint_jacobian(system, q0, 0.0))
     rank = np.linalg.matrix_rank(Phi_q, tol=1e-9 * max(1.0, np.abs(Phi_q).max()))
     return {
         "parts": topo.nbody,
