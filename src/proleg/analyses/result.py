@@ -99,6 +99,7 @@ class Result:
         }
         self.status = status
         self.message = message
+        self.initial_changes = []  # parts whose pose/velocity the initial-conditions analysis changed
         self.integrator = integrator
 
     @property

@@ -178,6 +178,7 @@ def simulate(
     )
     z0 = initial_z(system)
     q, v, qdd, lam, z0, pw = _consistent_state(system, q0, v0, t0, z0)
+    q_ic, v_ic = q, v
     traced = _any_traced((system.params, q))
     st = StepState(
         t=jnp.asarray(t0, jnp.float64), q=q, v=v, a=qdd, qdd=qdd, lam=lam,
@@ -233,6 +234,18 @@ def simulate(
     if status != Status.SUCCESS:
         msg = _failure_message(system, status, fail_t, worst)
     result = _build(system, rec_t, rec, stats, status, msg, integrator)
+    if not traced:
+        result.initial_changes = _ic_report(system, q_ic, v_ic) if q0 is None and v0 is None else []
+        moved = [c for c in result.initial_changes if max(c["moved [m]"], c["rotated [rad]"]) > 1e-6]
+        if moved:
+            import warnings
+
+            warnings.warn(
+                f"Initial conditions of '{system.topo.name}': to satisfy the joints, proleg moved "
+                + ", ".join(f"'{c['part']}' by {c['moved [m]']:.3g} m / {c['rotated [rad]']:.3g} rad" for c in moved)
+                + " from the modelled pose (result.initial_changes lists all changes).",
+                stacklevel=2,
+            )
     if status != Status.SUCCESS and throw:
         raise SolverError(msg, result)
     return result
