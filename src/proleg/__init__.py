@@ -74,3 +74,4 @@ from .model.control import TranslationalActuator as TranslationalActuator
 from . import fn as fn
 from .model.control import StateMachine as StateMachine
 from .model.forces import RotationalBacklash as RotationalBacklash
+from .model.flexible import FlexibleBody as FlexibleBody

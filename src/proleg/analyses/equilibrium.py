@@ -212,7 +212,7 @@ def _saddle_free(system, q, t, ftol, max_iter, max_step=0.2):
 
 def _explain_singular(system, J, nq):
     _, s, Vt = np.linalg.svd(J)
-    null = Vt[-1, :nq].reshape(system.topo.nbody, 7)
+    null = Vt[-1, : 7 * system.topo.nbody].reshape(system.topo.nbody, 7)
     mag = np.linalg.norm(null, axis=1)
     moving = [system.topo.body_names[b] for b in np.argsort(-mag) if mag[b] > 0.1 * mag.max()]
     raise ModelError(

@@ -334,7 +334,7 @@ def _joint_reactions(system: System, q, t, lam):
         _, vjp = jax.vjp(lambda qq: constraints(system, qq, tk), qk)
         Qc = -jax.vmap(lambda m: vjp(lk * m)[0])(jnp.asarray(masks))  # (nowner, nq)
         bk, mk = kinematics(system, qk)
-        Qb = Qc.reshape(nowner, nb, 7)
+        Qb = Qc[:, : 7 * nb].reshape(nowner, nb, 7)
 
         def side(b, m):
             bb = jnp.minimum(b, nb - 1)

@@ -89,8 +89,8 @@ def _ic_report(system, q, v):
     q_user = np.asarray(system.params["q_init"])
     v_user = np.asarray(system.params["v_init"])
     nb = system.topo.nbody
-    qa, qu = np.asarray(q).reshape(nb, 7), q_user.reshape(nb, 7)
-    va, vu = np.asarray(v).reshape(nb, 7), v_user.reshape(nb, 7)
+    qa, qu = np.asarray(q)[: 7 * nb].reshape(nb, 7), q_user[: 7 * nb].reshape(nb, 7)
+    va, vu = np.asarray(v)[: 7 * nb].reshape(nb, 7), v_user[: 7 * nb].reshape(nb, 7)
     out = []
     for b, name in enumerate(system.topo.body_names):
         pu = qu[b, 3:] / np.linalg.norm(qu[b, 3:])

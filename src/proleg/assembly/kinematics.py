@@ -35,7 +35,7 @@ _GROUND_P = jnp.array([1.0, 0.0, 0.0, 0.0])
 
 
 def body_kin(nbody: int, q, v=None) -> BodyKin:
-    qb = q.reshape(nbody, 7)
+    qb = q[: 7 * nbody].reshape(nbody, 7)
     r = jnp.concatenate([qb[:, :3], jnp.zeros((1, 3), q.dtype)], 0)
     p = jnp.concatenate([qb[:, 3:], _GROUND_P[None, :].astype(q.dtype)], 0)
     A = A_of_p(p)
@@ -43,21 +43,37 @@ def body_kin(nbody: int, q, v=None) -> BodyKin:
         rd = jnp.zeros_like(r)
         w = jnp.zeros_like(r)
     else:
-        vb = v.reshape(nbody, 7)
+        vb = v[: 7 * nbody].reshape(nbody, 7)
         rd = jnp.concatenate([vb[:, :3], jnp.zeros((1, 3), v.dtype)], 0)
         pd = jnp.concatenate([vb[:, 3:], jnp.zeros((1, 4), v.dtype)], 0)
         w = 2.0 * jnp.einsum("bij,bj->bi", G_of_p(p), pd)
     return BodyKin(r, p, A, rd, w)
 
 
-def marker_kin(onehot, marker_s, marker_C, bk: BodyKin) -> MarkerKin:
-    """Marker frames; ``onehot`` is the constant (nm, nb+1) marker→body matrix."""
+def marker_kin(onehot, marker_s, marker_C, bk: BodyKin, flex=None) -> MarkerKin:
+    """Marker frames; ``onehot`` is the constant (nm, nb+1) marker→body matrix.
+
+    ``flex = (eta, etad, phi, psi)`` adds the deformation of markers on flexible bodies:
+    s' = s'_0 + Φ η, C = (I + (Ψ η)~) C_0, with the deformation velocities in v and ω.
+    """
     Ab = jnp.einsum("mb,bij->mij", onehot, bk.A)
-    s = jnp.einsum("mij,mj->mi", Ab, marker_s)
-    r = onehot @ bk.r + s
-    R = Ab @ marker_C
     w = onehot @ bk.w
-    v = onehot @ bk.rd + jnp.cross(w, s)
+    if flex is None:
+        s = jnp.einsum("mij,mj->mi", Ab, marker_s)
+        R = Ab @ marker_C
+        v = onehot @ bk.rd + jnp.cross(w, s)
+    else:
+        eta, etad, phi, psi = flex
+        from ..spatial.rotation import skew
+
+        s_loc = marker_s + jnp.einsum("mij,j->mi", phi, eta)
+        s = jnp.einsum("mij,mj->mi", Ab, s_loc)
+        R = Ab @ ((jnp.eye(3) + skew(jnp.einsum("mij,j->mi", psi, eta))) @ marker_C)
+        v = onehot @ bk.rd + jnp.cross(w, s)
+        if etad is not None:
+            v = v + jnp.einsum("mij,mj->mi", Ab, jnp.einsum("mij,j->mi", phi, etad))
+            w = w + jnp.einsum("mij,mj->mi", Ab, jnp.einsum("mij,j->mi", psi, etad))
+    r = onehot @ bk.r + s
     return MarkerKin(r, R, v, w, Ab, s)
 
 

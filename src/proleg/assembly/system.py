@@ -41,6 +41,8 @@ class Topology:
     dropped: list = field(default_factory=list)  # (joint name, equation label) of removed redundant rows
     extensions: list = field(default_factory=list)  # contact/actuator/controller groups (later issues)
     model: Model = None
+    flex: object = None  # FlexGroup or None
+    n_eta: int = 0
 
     @property
     def nbody(self) -> int:
@@ -48,7 +50,7 @@ class Topology:
 
     @property
     def nq(self) -> int:
-        return 7 * self.nbody
+        return 7 * self.nbody + self.n_eta
 
     @property
     def nc(self) -> int:
@@ -220,7 +222,11 @@ class StateView:
 def kinematics(system: System, q, v=None):
     topo, P = system.topo, system.params
     bk = body_kin(topo.nbody, q, v)
-    mk = marker_kin(topo.marker_oh, P["marker_s"], P["marker_C"], bk)
+    flex = None
+    if topo.n_eta:
+        n0 = 7 * topo.nbody
+        flex = (q[n0:], None if v is None else v[n0:], P["marker_phi"], P["marker_psi"])
+    mk = marker_kin(topo.marker_oh, P["marker_s"], P["marker_C"], bk, flex)
     return bk, mk
 
 
@@ -234,12 +240,16 @@ def constraints(system: System, q, t):
 def mass_action(system: System, q, qdd):
     """M(q) q̈ per body: [m r̈; 4 LᵀJ'L p̈] as an (nq,) vector."""
     P = system.params
-    nb = system.topo.nbody
-    qb, ab = q.reshape(nb, 7), qdd.reshape(nb, 7)
+    topo = system.topo
+    nb = topo.nbody
+    qb, ab = q[: 7 * nb].reshape(nb, 7), qdd[: 7 * nb].reshape(nb, 7)
     p = qb[:, 3:]
     L = L_of_p(p)
     Jp = jnp.einsum("bij,bjk,bk->bi", P["body_inertia"], L, ab[:, 3:])
-    return jnp.concatenate([P["body_mass"][:, None] * ab[:, :3], 4.0 * jnp.einsum("bji,bj->bi", L, Jp)], 1).reshape(-1)
+    out = jnp.concatenate([P["body_mass"][:, None] * ab[:, :3], 4.0 * jnp.einsum("bji,bj->bi", L, Jp)], 1).reshape(-1)
+    if topo.n_eta:
+        out = jnp.concatenate([out, jnp.zeros(topo.n_eta)]) + topo.flex.mass_action(P, q, qdd)
+    return out
 
 
 def element_loads(system: System, bk, mk, t, z=None):
@@ -265,28 +275,36 @@ def generalized_forces(system: System, q, v, t, z=None):
     # Marker loads → generalized forces: Q_r += F, Q_p += 2 Lᵀ (Aᵀ T + s' × Aᵀ F).
     AtF = jnp.einsum("mji,mj->mi", mk.Ab, Fm)
     AtT = jnp.einsum("mji,mj->mi", mk.Ab, Tm)
-    n_local = AtT + jnp.cross(P["marker_s"], AtF)
+    s_loc = jnp.einsum("mji,mj->mi", mk.Ab, mk.s) if topo.n_eta else P["marker_s"]
+    n_local = AtT + jnp.cross(s_loc, AtF)
     Fb = (topo.marker_oh.T @ Fm)[:nb]
     Nb = (topo.marker_oh.T @ n_local)[:nb]
     p = bk.p[:nb]
     L = L_of_p(p)
-    pd = v.reshape(nb, 7)[:, 3:]
+    pd = v[: 7 * nb].reshape(nb, 7)[:, 3:]
     wl = 2.0 * jnp.einsum("bij,bj->bi", L, pd)  # body-frame angular velocity
     Jw = jnp.einsum("bij,bj->bi", P["body_inertia"], wl)
     Nb = Nb - jnp.cross(wl, Jw)
     Qr = Fb + P["body_mass"][:, None] * P["gravity"]
     Qp = 2.0 * jnp.einsum("bji,bj->bi", L, Nb)
-    return jnp.concatenate([Qr, Qp], 1).reshape(-1)
+    Q = jnp.concatenate([Qr, Qp], 1).reshape(-1)
+    if topo.n_eta:
+        Qe = jnp.einsum("mij,mi->j", P["marker_phi"], AtF) + jnp.einsum("mij,mi->j", P["marker_psi"], AtT)
+        Q = jnp.concatenate([Q, Qe]) + topo.flex.forces(P, q, v, P["gravity"])
+    return Q
 
 
 def kinetic_energy(system: System, q, v):
     P = system.params
     nb = system.topo.nbody
-    vb, qb = v.reshape(nb, 7), q.reshape(nb, 7)
+    vb, qb = v[: 7 * nb].reshape(nb, 7), q[: 7 * nb].reshape(nb, 7)
     wl = 2.0 * jnp.einsum("bij,bj->bi", L_of_p(qb[:, 3:]), vb[:, 3:])
-    return 0.5 * jnp.sum(P["body_mass"] * jnp.sum(vb[:, :3] ** 2, -1)) + 0.5 * jnp.sum(
+    T = 0.5 * jnp.sum(P["body_mass"] * jnp.sum(vb[:, :3] ** 2, -1)) + 0.5 * jnp.sum(
         jnp.einsum("bi,bij,bj->b", wl, P["body_inertia"], wl)
     )
+    if system.topo.n_eta:
+        T = T + system.topo.flex.kinetic(P, q, v)
+    return T
 
 
 def potential_energy(system: System, q, t=0.0, z=None):
@@ -294,6 +312,8 @@ def potential_energy(system: System, q, t=0.0, z=None):
     bk, mk = kinematics(system, q)
     ctx = StateView(topo, bk, mk, t, z, P)
     vg = -jnp.sum(P["body_mass"] * (bk.r[:-1] @ P["gravity"]))
+    if topo.n_eta:
+        vg = vg + topo.flex.potential(P, q, P["gravity"])
     return vg + sum(g.potential(P, mk, t, ctx) for g in topo.groups + topo.extensions if len(g))
 
 
@@ -304,6 +324,8 @@ def power_terms(system: System, q, v, t, z=None):
     ctx = StateView(topo, bk, mk, t, z, P)
     gs = [g for g in topo.groups + topo.extensions if len(g)]
     d = sum((g.dissipation(P, mk, t, ctx) for g in gs), jnp.zeros(()))
+    if topo.n_eta:
+        d = d + topo.flex.dissipative(P, q, v)[1]
     w = sum((g.input_power(P, mk, t, ctx) for g in gs), jnp.zeros(()))
     return jnp.stack([d, w])
 
@@ -322,7 +344,8 @@ def initial_coordinates(model: Model):
         pd = 0.5 * np.asarray(G_of_p(jnp.asarray(p))).T @ part.angular_velocity
         q.append(np.concatenate([part.position, p]))
         v.append(np.concatenate([part.velocity, pd]))
-    return np.concatenate(q), np.concatenate(v)
+    n_eta = sum(p.n_eta for p in model.parts if getattr(p, "is_flexible", False))
+    return np.concatenate(q + [np.zeros(n_eta)]), np.concatenate(v + [np.zeros(n_eta)])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -417,10 +440,12 @@ def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
     marker_oh = np.zeros((nm, nb + 1))
     marker_oh[np.arange(nm), marker_body] = 1.0
 
+    flex_parts = [p for p in model.parts if getattr(p, "is_flexible", False)]
     params = {
         "gravity": np.asarray(model.gravity, float),
-        "body_mass": np.array([p.mass for p in model.parts]),
-        "body_inertia": np.array([p.inertia for p in model.parts]),
+        # Flexible bodies get their inertia from their own Lagrangian (assembly/flexible.py).
+        "body_mass": np.array([0.0 if getattr(p, "is_flexible", False) else p.mass for p in model.parts]),
+        "body_inertia": np.array([np.zeros((3, 3)) if getattr(p, "is_flexible", False) else p.inertia for p in model.parts]),
         "marker_s": np.array([m.local_position for m in markers]).reshape(nm, 3),
         "marker_C": np.array([m.local_orientation for m in markers]).reshape(nm, 3, 3),
     }
@@ -449,6 +474,13 @@ def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
         groups=groups,
         model=model,
     )
+    if flex_parts:
+        from .flexible import FlexGroup
+
+        topo.flex = FlexGroup(flex_parts, body_index, 7 * nb)
+        topo.n_eta = topo.flex.n_eta
+        params.update(topo.flex.params())
+        params["marker_phi"], params["marker_psi"] = topo.flex.marker_fields(markers, nm, topo.n_eta)
     extensions = []
     for hook in EXTENSION_HOOKS:
         extensions += hook(model, topo, marker_index, params)

@@ -64,11 +64,20 @@ class Model:
         self.parts.append(part)
         return part
 
-    def add_marker(self, part, name, position, orientation=None) -> Marker:
-        """Add a marker on ``part`` at a ground-frame ``position`` (modelled pose); returns it."""
+    def add_marker(self, part, name, position=None, orientation=None, *, node=None) -> Marker:
+        """Add a marker on ``part`` at a ground-frame ``position`` (modelled pose); returns it.
+
+        On a :class:`FlexibleBody` give ``node=`` (an FE node) or a position on a node.
+        """
         self._check_part(part, f"Marker '{name}'")
         self._claim("Marker", name, None)
-        m = make_marker(name, part, position, orientation)
+        if getattr(part, "is_flexible", False):
+            k = node if node is not None else part.nearest_node(position)
+            m = part.node_marker(name, k, orientation)
+        else:
+            if position is None:
+                raise ModelError(f"Marker '{name}': give position=(x, y, z) in ground coordinates.")
+            m = make_marker(name, part, position, orientation)
         self._names[f"Marker:{name}"] = m
         self.markers.append(m)
         return m
@@ -117,6 +126,18 @@ class Model:
                 element.marker = self.add_marker(element.part, f"{element.name}.at", at)
         self.forces.append(element)
         return element
+
+    def add_flexible_body(self, name, reduced, frame_node, position, orientation=None, damping_ratio=0.0, velocity=None, angular_velocity=None):
+        """Add a Craig-Bampton flexible body (:class:`proleg.model.flexible.FlexibleBody`); returns it."""
+        from .flexible import FlexibleBody
+
+        if name == "ground":
+            raise ModelError("Part name 'ground' is reserved for model.ground.")
+        self._claim("Part", name, None)
+        body = FlexibleBody(name, reduced, frame_node, position, orientation, damping_ratio, velocity, angular_velocity)
+        self._names[f"Part:{name}"] = body
+        self.parts.append(body)
+        return body
 
     def add_contact(self, contact):
         """Add a contact (SphereContact, PointContact, CylinderContact); a ground plane z = 0 by default."""

@@ -92,6 +92,13 @@ CYLINDER_MASS = 0.30  # [kg] assumed
 CYLINDER_LENGTH = 0.20  # [m] assumed, barrel measured from its pin
 ROD_MASS = 0.10  # [kg] assumed
 ROD_LENGTH = 0.15  # [m] assumed, rod measured from its pin
+CYLINDER_RADIUS = 0.015  # [m] assumed outer radius of the barrel (inertia about its axis only)
+ROD_RADIUS = 0.005  # [m] Ø10 mm rod
+SLIDER_INERTIA = (0.02, 0.02, 0.02)  # [kg m²] assumed; no effect: the slider cannot rotate
+#: Bench pose: θ1 = −30°, θ2 = 60° put the foot under the hip; the servo setpoints, and the pose
+#: at which the cylinders are split off the URDF upper-leg mass properties.
+NOMINAL_HFE = -30.0 * deg
+NOMINAL_KFE = 60.0 * deg
 #: Bushing defaults (seed 001: "taken from bearing commercial datasheets", values not printed).
 #: Radial 1e8 N/m is the order of a small deep-groove ball bearing (MODEL_DATA §1); axial taken
 #: as 1/10 of radial (deep-groove bearings are much softer axially); tilt from two bearings
@@ -210,6 +217,8 @@ def sources() -> list[tuple]:
         ("servo period", SERVO_PERIOD, "s", "assumed (1 kHz)"),
         ("cylinder barrel mass / length", [CYLINDER_MASS, CYLINDER_LENGTH], "kg, m", "assumed"),
         ("cylinder rod mass / length", [ROD_MASS, ROD_LENGTH], "kg, m", "assumed"),
+        ("barrel / rod radius", [CYLINDER_RADIUS, ROD_RADIUS], "m", "assumed"),
+        ("nominal pose θ1, θ2", [NOMINAL_HFE / deg, NOMINAL_KFE / deg], "deg", "assumed (foot under the hip)"),
         ("bushing radial stiffness", BUSHING_RADIAL_STIFFNESS, "N/m", "bearing datasheet order (MODEL_DATA §1); seed 001"),
         ("bushing axial / radial", BUSHING_AXIAL_RATIO, "-", "assumed"),
         ("bearing span (tilt stiffness k_r s²/4)", BEARING_SPAN, "m", "assumed"),

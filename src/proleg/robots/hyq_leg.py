@@ -77,19 +77,12 @@ from dataclasses import dataclass, field
 import jax.numpy as jnp
 import numpy as np
 
-from .. import (
-    Bushing,
-    Cylindrical,
-    DiscreteController,
-    HydraulicActuator,
-    Model,
-    PID,
-    Prismatic,
-    Revolute,
-    SphereContact,
-    Universal,
-)
 from ..errors import ModelError
+from ..model.contacts import SphereContact
+from ..model.control import PID, DiscreteController, HydraulicActuator
+from ..model.forces import Bushing
+from ..model.joints import Cylindrical, Prismatic, Revolute, Universal
+from ..model.model import Model
 from ..units import deg
 from . import hyq_data as D
 
@@ -206,7 +199,7 @@ def _upper_leg_residual(cyl):
     """Upper-leg structure mass, COM (link frame) and inertia so that structure + both cylinders
     + both rods reproduce the URDF upper-leg mass properties at the nominal pose (θ1 = −30°,
     θ2 = 60°), all expressed in the upper-leg link frame (pose independent)."""
-    th1, th2 = -30.0 * deg, 60.0 * deg
+    th1, th2 = D.NOMINAL_HFE, D.NOMINAL_KFE
     g = _geometry(th1, th2, 0.0, cyl)
     R1 = D.urdf_link_frame(th1)
     m_tot = D.UPPER_LEG_MASS
@@ -215,7 +208,7 @@ def _upper_leg_residual(cyl):
     bodies = []
     for side in ("hip", "knee"):
         Rc = R1.T @ _axis_frame(g[f"{side}_e"])
-        for what, m, L, r in (("cyl", cyl["cylinder_mass"], cyl["cylinder_length"], 0.015), ("rod", cyl["rod_mass"], cyl["rod_length"], 0.005)):
+        for what, m, L, r in (("cyl", cyl["cylinder_mass"], cyl["cylinder_length"], D.CYLINDER_RADIUS), ("rod", cyl["rod_mass"], cyl["rod_length"], D.ROD_RADIUS)):
             pos = R1.T @ (g[f"{side}_{what}_com"] - g["O"])
             bodies.append((m, pos, Rc @ np.diag(_slender(m, L, r)) @ Rc.T))
     m_s = m_tot - sum(b[0] for b in bodies)
@@ -245,8 +238,8 @@ def hyq_leg(
     bushing_stiffness=D.BUSHING_RADIAL_STIFFNESS,
     bushing_damping=None,
     *,
-    hip_angle: float = -30.0 * deg,
-    knee_angle: float = 60.0 * deg,
+    hip_angle: float = D.NOMINAL_HFE,
+    knee_angle: float = D.NOMINAL_KFE,
     slider_mass: float = D.HIP_ASSEMBLY_MASS,
     cylinder_mass: float = D.CYLINDER_MASS,
     rod_mass: float = D.ROD_MASS,
@@ -352,8 +345,7 @@ def hyq_leg(
 
     model = Model(name or f"hyq_leg_{joints}", gravity=(0.0, 0.0, -float(gravity)))
     # -- parts -------------------------------------------------------------------------------
-    I_slider = (0.02, 0.02, 0.02)  # [kg m²] assumed; irrelevant on the prismatic joint (no rotation)
-    slider = model.add_part("slider", slider_mass + payload, I_slider, g["O"])
+    slider = model.add_part("slider", slider_mass + payload, D.SLIDER_INERTIA, g["O"])
     m_u, c_u, J_u = _upper_leg_residual(cyl)
     upper = model.add_part("upper_leg", m_u, J_u, g["O"] + R1 @ c_u, R1)
     lower = model.add_part("lower_leg", D.LOWER_LEG_MASS, np.array(D.LOWER_LEG_INERTIA), g["K"] + R2 @ np.array(D.LOWER_LEG_COM), R2)
@@ -361,9 +353,9 @@ def hyq_leg(
     for side in ("hip", "knee"):
         Rc = _axis_frame(g[f"{side}_e"])
         parts[f"{side}_cylinder"] = model.add_part(
-            f"{side}_cylinder", cylinder_mass, _slender(cylinder_mass, cylinder_length, 0.015), g[f"{side}_cyl_com"], Rc
+            f"{side}_cylinder", cylinder_mass, _slender(cylinder_mass, cylinder_length, D.CYLINDER_RADIUS), g[f"{side}_cyl_com"], Rc
         )
-        parts[f"{side}_rod"] = model.add_part(f"{side}_rod", rod_mass, _slender(rod_mass, rod_length, 0.005), g[f"{side}_rod_com"], Rc)
+        parts[f"{side}_rod"] = model.add_part(f"{side}_rod", rod_mass, _slender(rod_mass, rod_length, D.ROD_RADIUS), g[f"{side}_rod_com"], Rc)
 
     # -- slider on its vertical bar ----------------------------------------------------------
     model.add_joint(Prismatic("slider", slider, model.ground, at=g["O"], axis=(0.0, 0.0, 1.0)))

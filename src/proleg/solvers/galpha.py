@@ -103,7 +103,7 @@ class StepOptions:
 
 def _weights(system: System, q, opts: StepOptions):
     nb = system.topo.nbody
-    atol = jnp.tile(jnp.array([opts.atol] * 3 + [opts.atol_p] * 4), nb)
+    atol = jnp.concatenate([jnp.tile(jnp.array([opts.atol] * 3 + [opts.atol_p] * 4), nb), jnp.full(system.topo.n_eta, opts.atol)])
     return atol + opts.rtol * jnp.abs(q)
 
 

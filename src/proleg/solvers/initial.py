@@ -37,9 +37,9 @@ def kkt_accelerations(system: System, q, v, t, z=None):
 
 
 def _normalize_p(q, nb):
-    qb = q.reshape(nb, 7)
+    qb = q[: 7 * nb].reshape(nb, 7)
     p = qb[:, 3:] / jnp.linalg.norm(qb[:, 3:], axis=1, keepdims=True)
-    return jnp.concatenate([qb[:, :3], p], 1).reshape(-1)
+    return jnp.concatenate([jnp.concatenate([qb[:, :3], p], 1).reshape(-1), q[7 * nb :]])
 
 
 @jax.jit
@@ -92,8 +92,8 @@ def initial_conditions(system: System, q_user=None, v_user=None, t0=0.0, tol=1e-
         )
     v = _vel_ic(system, q, v_user, t0)
     report = []
-    qa, qb_ = np.asarray(q).reshape(nb, 7), np.asarray(q_user).reshape(nb, 7)
-    va, vb_ = np.asarray(v).reshape(nb, 7), np.asarray(v_user).reshape(nb, 7)
+    qa, qb_ = np.asarray(q)[: 7 * nb].reshape(nb, 7), np.asarray(q_user)[: 7 * nb].reshape(nb, 7)
+    va, vb_ = np.asarray(v)[: 7 * nb].reshape(nb, 7), np.asarray(v_user)[: 7 * nb].reshape(nb, 7)
     for b, name in enumerate(topo.body_names):
         dr = np.linalg.norm(qa[b, :3] - qb_[b, :3])
         dp = 2 * np.linalg.norm(qa[b, 3:] - qb_[b, 3:])
