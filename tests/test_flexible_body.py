@@ -93,3 +93,36 @@ def test_marker_off_the_mesh_is_an_error(strip):
         m.add_marker(fb, "off", position=(0.1234, 0.02, 0))
     with pytest.raises(pl.ModelError, match="frame_node"):
         m.add_flexible_body("link2", rb, frame_node=5, position=(0, 0, 0))
+
+
+def test_stress_recovery_matches_beam_theory_at_the_clamp():
+    """A static tip force P on the clamped strip: bending stress at the clamp sigma = P L c / I.
+
+    Stress field: the beam's root section from the element curvature (a linear function of the
+    nodal displacements) — here via the first element's end rotations, as a user would supply.
+    """
+    beam, rb, root, tip = reduced_strip(n_el=8, n_modes=2)
+    sec = Section.rectangle(0.05, 0.003)
+    E, c = 200e9, 0.0015
+    le = L / 8
+    n1 = beam.node_at((le, 0, 0))
+
+    def root_stress(u):
+        # Hermite cubic: curvature at x = 0 from w0, th0, w1, th1 of the first element (bending in x-z)
+        w0, t0 = u[beam.dof(root, "uz")], -u[beam.dof(root, "ry")]
+        w1, t1 = u[beam.dof(n1, "uz")], -u[beam.dof(n1, "ry")]
+        kappa = (6 * (w1 - w0) / le**2 - (4 * t0 + 2 * t1) / le)
+        sxx = E * c * kappa
+        return np.array([[[sxx, 0, 0], [0, 0, 0], [0, 0, 0]]])
+
+    P = 30.0
+    m = pl.Model("clamped_load", gravity=(0, 0, 0))
+    fb = m.add_flexible_body("link", rb, frame_node=root, position=(0, 0, 0), stress=([(0, 0, c)], root_stress), damping_ratio=0.05)
+    m.add_joint(pl.Fixed("clamp", m.ground, fb, at=(0, 0, 0)))
+    tipm = m.add_marker(fb, "tip", node=tip)
+    m.add_force(pl.Force("load", tipm, value=(0, 0, -P)))
+    eq = pl.solve_equilibrium(pl.assemble(m))
+    res = eq.result()
+    vm = res.stress("link").von_mises[0, 0]
+    assert sec.Iy == pytest.approx(0.05 * 0.003**3 / 12)
+    assert vm == pytest.approx(P * L * c / sec.Iy, rel=2e-2)

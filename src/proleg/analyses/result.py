@@ -196,6 +196,25 @@ class Result:
 
     force = element
 
+    def deformation(self, name):
+        """Deformation coordinates η (n, n_eta) of a flexible body."""
+        fg = self.system.topo.flex
+        if fg is None or name not in fg.names:
+            raise ModelError(f"No flexible body named '{name}' in the result.")
+        k = fg.names.index(name)
+        return self._np(self.q[:, fg.off[k] : fg.off[k] + fg.bodies[k].n_eta])
+
+    def stress(self, name) -> ElementResult:
+        """Stress recovery of a flexible body built with ``stress=(points, fn)``: ``tensor`` (n, k, 3, 3)
+        [Pa] and ``von_mises`` (n, k) [Pa] at its stress points."""
+        body = self.system.topo.flex.bodies[self.system.topo.flex.names.index(name)] if self.system.topo.flex and name in self.system.topo.flex.names else None
+        if body is None or body.stress_modes is None:
+            raise ModelError(f"Flexible body '{name}' has no stress points: build it with stress=(points, fn).")
+        sig = np.einsum("kabj,nj->nkab", body.stress_modes, np.asarray(self.deformation(name)))
+        dev = sig - np.trace(sig, axis1=-2, axis2=-1)[..., None, None] * np.eye(3) / 3.0
+        vm = np.sqrt(1.5 * np.sum(dev * dev, axis=(-2, -1)))
+        return ElementResult(tensor=sig, von_mises=vm, points=body.stress_points)
+
     def contact(self, name) -> ElementResult:
         """normal_force (n,), friction_force (n, 3), force (n, 3) on the contacting part (= the GRF a
         force plate measures), penetration, penetration_rate, slip_velocity, in_contact, point."""

@@ -28,11 +28,16 @@ class FlexibleBody(Part):
     position : (3,) [m] ground position of the frame node at the modelled pose
     orientation : (3, 3) FE axes → ground
     damping_ratio : float or (n_eta,) [-]
+    stress : optional ``(points, fn)``: ``fn(u)`` maps a full-model displacement vector (ndof,) to
+        the stress tensors (k, 3, 3) [Pa] at ``points`` (e.g. ``lambda u: solid.stress_at(u, pts).stress``);
+        stress is linear in η, so it is precomputed per deformation coordinate and
+        ``result.stress(name)`` gives the von Mises stress history (n, k) (stress recovery, e.g.
+        at the clamped end of FLEGX's link).
     """
 
     is_flexible = True
 
-    def __init__(self, name, reduced, frame_node, position, orientation=None, damping_ratio=0.0, velocity=None, angular_velocity=None):
+    def __init__(self, name, reduced, frame_node, position, orientation=None, damping_ratio=0.0, velocity=None, angular_velocity=None, stress=None):
         from ..fem.craig_bampton import ReducedBody
 
         if isinstance(reduced, str) or hasattr(reduced, "__fspath__"):
@@ -93,6 +98,13 @@ class FlexibleBody(Part):
         J = np.asarray(inv["I7"], float) if "I7" in inv else np.eye(3) * mass * 1e-6  # about the FE origin (info only)
         super().__init__(name, mass, J, pos, R, np.zeros(3) if velocity is None else finite_array(f"FlexibleBody '{name}' velocity", velocity, (3,)),
                          np.zeros(3) if angular_velocity is None else finite_array(f"FlexibleBody '{name}' angular_velocity", angular_velocity, (3,)))
+
+        self.stress_points, self.stress_modes = None, None
+        if stress is not None:
+            pts, fn = stress
+            T = reduced.basis
+            self.stress_points = np.asarray(pts, float)
+            self.stress_modes = np.stack([np.asarray(fn(T[:, c]), float) for c in self.eta_cols], -1)  # (k, 3, 3, n_eta)
 
     @property
     def n_eta(self) -> int:

@@ -127,14 +127,14 @@ class Model:
         self.forces.append(element)
         return element
 
-    def add_flexible_body(self, name, reduced, frame_node, position, orientation=None, damping_ratio=0.0, velocity=None, angular_velocity=None):
+    def add_flexible_body(self, name, reduced, frame_node, position, orientation=None, damping_ratio=0.0, velocity=None, angular_velocity=None, stress=None):
         """Add a Craig-Bampton flexible body (:class:`proleg.model.flexible.FlexibleBody`); returns it."""
         from .flexible import FlexibleBody
 
         if name == "ground":
             raise ModelError("Part name 'ground' is reserved for model.ground.")
         self._claim("Part", name, None)
-        body = FlexibleBody(name, reduced, frame_node, position, orientation, damping_ratio, velocity, angular_velocity)
+        body = FlexibleBody(name, reduced, frame_node, position, orientation, damping_ratio, velocity, angular_velocity, stress)
         self._names[f"Part:{name}"] = body
         self.parts.append(body)
         return body
