@@ -11,7 +11,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..assembly.system import System, constraints, power_terms
+from ..assembly.system import System, constraints, generalized_forces, power_terms
 from ..errors import ConvergenceError, SolverError, Status
 from ..solvers.driver import DriverOptions, advance, sample_controllers
 from ..solvers.galpha import GeneralizedAlpha, StepOptions, StepState
@@ -56,7 +56,10 @@ def _ic(system: System, q_user, v_user, t0, n_iter: int, z0):
     v = jnp.linalg.solve(S, jnp.concatenate([M @ v_user, -Pt]))[:nq]
     z = sample_controllers(system, t0, q, v, z0, True)
     qdd, lam = kkt_accelerations(system, q, v, t0, z)
-    return q, v, qdd, lam, z, power_terms(system, q, v, t0, z), res
+    # HHT carries g = (Φ_qᵀλ − Q) of the previous step; start it consistently (not 0).
+    _, vjp = jax.vjp(lambda qq: constraints(system, qq, t0), q)
+    g = vjp(lam)[0] - generalized_forces(system, q, v, t0, z)
+    return q, v, qdd, lam, z, (power_terms(system, q, v, t0, z), g), res
 
 
 def consistent_state(system: System, q_user=None, v_user=None, t0=0.0, z0=None, tol=1e-10):
@@ -177,12 +180,12 @@ def simulate(
         sample_period=sample_period(system),
     )
     z0 = initial_z(system)
-    q, v, qdd, lam, z0, pw = _consistent_state(system, q0, v0, t0, z0)
+    q, v, qdd, lam, z0, (pw, g0) = _consistent_state(system, q0, v0, t0, z0)
     q_ic, v_ic = q, v
     traced = _any_traced((system.params, q))
     st = StepState(
         t=jnp.asarray(t0, jnp.float64), q=q, v=v, a=qdd, qdd=qdd, lam=lam,
-        h_prev=jnp.asarray(1.0), w=jnp.zeros(2), pw=pw, z=z0, g=jnp.zeros_like(q),
+        h_prev=jnp.asarray(1.0), w=jnp.zeros(2), pw=pw, z=z0, g=g0,
     )
     h = jnp.asarray(dt_init if dt_init is not None else (fixed_step or min(1e-4, dopts.dt_max)), jnp.float64)
     st = st._replace(h_prev=h)
@@ -255,14 +258,14 @@ def _failure_message(system, status, t, worst):
     topo = system.topo
     where = "unknown element"
     if worst is not None:
-        if status == Status.NEWTON_FAILED and worst >= topo.nq:
+        if worst >= topo.nq:
             elem, lab = topo.ct.labels[worst - topo.nq]
             where = f"constraint '{elem}' ({lab})"
         else:
             b = min(worst // 7, topo.nbody - 1)
             where = f"part '{topo.body_names[b]}'"
             near = [g for g in topo.extensions if hasattr(g, "elements_on_body")]
-            names = [n for g in near for n in g.elements_on_body(b)]
+            names = sorted({n for g in near for n in g.elements_on_body(topo.body_names[b])})
             if names:
                 where += f" (contact/element: {', '.join(names)})"
     return f"{status.describe()} at t = {t:.6g} s; worst offender: {where}."

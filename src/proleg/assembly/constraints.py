@@ -136,6 +136,8 @@ def constraint_values(ct: ConstraintTopology, screw_lead, mr, mR, p, t):
         th = joint_angle(RI, RJ)
         z = joint_translation(ct.drv_i @ mr, ct.drv_j @ mr, RJ)
         f = jnp.stack([jnp.asarray(fn(t), dtype=mr.dtype) for fn in ct.drv_fn])
-        parts.append(jnp.where(ct.drv_rot, th, z) - f)
+        # Rotations: the wrapped difference, so a driven joint can turn through any number of turns.
+        dth = th - f
+        parts.append(jnp.where(ct.drv_rot, jnp.arctan2(jnp.sin(dth), jnp.cos(dth)), z - f))
     parts.append(jnp.sum(p * p, -1) - 1.0)
     return jnp.concatenate(parts)

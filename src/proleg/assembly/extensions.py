@@ -51,8 +51,9 @@ class ContactGroup(AbstractGroup):
         f = lambda a: np.array([getattr(x, a) for x in e], float)
         return {f"contact_{a}": f(a) for a in ("radius", "stiffness", "exponent", "damping", "penetration", "mu_static", "mu_dynamic", "v_stiction", "v_friction")}
 
-    def elements_on_body(self, b, body_names=None):
-        return []
+    def elements_on_body(self, body_name):
+        """Names of the contacts whose contacting marker is on part ``body_name`` (for failure messages)."""
+        return [e.name for e in self.elements if body_name in (e.marker.part.name, e.plane.part.name)]
 
     def _law(self, P, mk):
         c = self.oh_i @ mk.r

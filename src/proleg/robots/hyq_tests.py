@@ -91,12 +91,14 @@ def _slider_z(result) -> np.ndarray:
     return np.asarray(result.q)[:, 7 * b + 2]
 
 
-def channels(result) -> pd.DataFrame:
+def channels(result, *, light: bool = False) -> pd.DataFrame:
     """The bench channels of a Result: slider height and displacement, cylinder forces, SU, UL,
-    3-axis GRF, servo torques and the energy terms, one row per output time."""
+    3-axis GRF, servo torques and the energy terms, one row per output time.
+
+    ``light=True`` keeps the slider, force and GRF channels only (one output evaluation instead
+    of three: for parameter sweeps)."""
     z = _slider_z(result)
     fh, fk = cylinder_forces(result)
-    th1, th2 = joint_angles(result)
     grf = np.asarray(result.contact("foot").force) if "foot" in _contact_names(result) else np.zeros((len(z), 3))
     df = pd.DataFrame(
         {
@@ -105,13 +107,16 @@ def channels(result) -> pd.DataFrame:
             "slider displacement [m]": z - z[0],
             "hip force [N]": fh,
             "knee force [N]": fk,
-            "SU [deg]": th1 / deg,
-            "UL [deg]": th2 / deg,
             "GRF x [N]": grf[:, 0],
             "GRF y [N]": grf[:, 1],
             "GRF z [N]": grf[:, 2],
         }
     )
+    if light:
+        return df
+    th1, th2 = joint_angles(result)
+    df.insert(5, "SU [deg]", th1 / deg)
+    df.insert(6, "UL [deg]", th2 / deg)
     for side in ("hip", "knee"):
         name = f"{side}_servo"
         if any(name in g.names for g in result.system.topo.extensions if g.kind == "controller"):
@@ -388,7 +393,8 @@ def drop_summary(df: pd.DataFrame, band: float = 0.02) -> dict:
 
 def drop_test(
     joints: str = "rigid", gain: str = "high", drop_height: float = 0.05, t_end: float = 1.2, *,
-    dt_output: float = 1e-3, progress: bool = False, system=None, rtol: float = 1e-6, atol: float = 1e-7, **model_kw
+    dt_output: float = 1e-3, progress: bool = False, system=None, rtol: float = 1e-6, atol: float = 1e-7,
+    light: bool = False, **model_kw
 ) -> BenchTest:
     """Seed 000/001 drop test: released with the foot ``drop_height`` above the plate (the leg
     at its servo setpoints, all at rest), free to bounce and oscillate to rest.
@@ -397,16 +403,19 @@ def drop_test(
     the leg at release (in free fall no internal force is needed). Pass ``system`` (an
     assembled model of the same kind) to reuse a compiled System, e.g. with changed parameters.
 
-    Returns a BenchTest with ``results["drop"]``, ``tables["channels"]`` and ``tables["summary"]``.
+    Returns a BenchTest with ``results["drop"]``, ``tables["channels"]`` and ``tables["summary"]``
+    (``light=True``: force channels only, no summary; see :func:`channels`).
     """
     model_kw.setdefault("actuators", "drop")
     model = hyq_leg(joints=joints, gain=gain, drop_height=drop_height, **model_kw) if system is None else system.topo.model
     system = assemble(model) if system is None else system
-    res = simulate(system, t_end=t_end, dt_output=dt_output, progress=progress, rtol=rtol, atol=atol)
-    df = channels(res)
-    summ = drop_summary(df)
+    # dt_max given explicitly: the same solver options for any t_end, so runs of one System of
+    # different lengths share the compiled integrator
+    res = simulate(system, t_end=t_end, dt_output=dt_output, dt_max=min(dt_output, 1e-2), progress=progress, rtol=rtol, atol=atol)
+    df = channels(res, light=light)
+    tables = {"channels": df} if light else {"channels": df, "summary": pd.DataFrame([drop_summary(df)])}
     return BenchTest(
-        "drop", results={"drop": res}, tables={"channels": df, "summary": pd.DataFrame([summ])},
+        "drop", results={"drop": res}, tables=tables,
         models={"drop": model}, systems={"drop": system},
     )
 

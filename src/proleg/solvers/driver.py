@@ -37,7 +37,18 @@ def sample_controllers(system, t, q, v, z, first=False):
 
 
 def _sample_update(system, st: StepState):
-    return st._replace(z=sample_controllers(system, st.t, st.q, st.v, st.z))
+    """A controller sample. The held commands jump, so the accelerations are re-initialised from
+    the KKT system at the new commands (like a restart), instead of being smeared over a step."""
+    from .initial import kkt_accelerations
+    from ..assembly.system import power_terms
+
+    from ..assembly.system import constraints, generalized_forces
+
+    z = sample_controllers(system, st.t, st.q, st.v, st.z)
+    qdd, lam = kkt_accelerations(system, st.q, st.v, st.t, z)
+    _, vjp = jax.vjp(lambda qq: constraints(system, qq, st.t), st.q)
+    g = vjp(lam)[0] - generalized_forces(system, st.q, st.v, st.t, z)
+    return st._replace(z=z, qdd=qdd, a=qdd, lam=lam, g=g, pw=power_terms(system, st.q, st.v, st.t, z))
 
 
 @partial(jax.jit, static_argnums=(1, 2))
