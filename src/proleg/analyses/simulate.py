@@ -134,6 +134,7 @@ def simulate(
     dt_max: float | None = None,
     fixed_step: float | None = None,
     max_newton: int = 10,
+    jacobian_refresh: bool = True,
     q0=None,
     v0=None,
     progress: bool | None = None,
@@ -153,6 +154,8 @@ def simulate(
     throw : raise :class:`SolverError` on failure (its ``.result`` holds what was computed);
         otherwise return a Result whose ``status``/``message`` say what happened
     on_chunk : callable(Result) called after each chunk (e.g. to write partial results)
+    jacobian_refresh : rebuild the Newton matrix within a step when convergence is slow (default);
+        pass False inside ``jax.vmap`` batches (one Jacobian per step, no branch)
 
     Works under ``jax.vmap`` and ``jax.jacfwd`` (the Python loop over chunks is static).
     """
@@ -173,7 +176,9 @@ def simulate(
         raise ValueError(f"t_end ({t_end}) must be greater than t0 ({t0}).")
     dt_out = float(np.min(np.diff(times))) if len(times) > 1 else t_end - t0
     dopts = DriverOptions(
-        step=StepOptions(rtol=rtol, atol=atol, atol_p=atol if atol_p is None else atol_p, max_newton=max_newton),
+        step=StepOptions(
+            rtol=rtol, atol=atol, atol_p=atol if atol_p is None else atol_p, max_newton=max_newton, jacobian_refresh=jacobian_refresh
+        ),
         dt_min=dt_min,
         dt_max=float(dt_max if dt_max is not None else min(dt_out, 1e-2)),
         fixed_step=fixed_step,

@@ -252,8 +252,9 @@ def pin_table() -> pd.DataFrame:
 # the drop report
 # ------------------------------------------------------------------------------------------
 def _drop_job(job: dict) -> dict:
-    """One model's drop (and, for the 8-bushing model, the bench variant on the same compiled
-    System). Module-level so that worker processes can run it; returns picklable data only."""
+    """One model's drop and, for the 8-bushing model, the bench variant and the pin-stiffness
+    sweep on the same compiled System (``with_params``: no recompilation). Module-level so that
+    worker processes can run it; returns picklable data only (tables, HyQInfo, run statistics)."""
     from .hyq_tests import bench_variant, drop_test, instrument, variant_system
 
     t0 = time.perf_counter()
@@ -401,7 +402,7 @@ def write_drop_report(out_dir, outs: list[dict], *, t_end: float, gain: str = "h
     rep.add_heading("Model")
     rep.add_table(pin_table(), "Pins (seed 001 Fig. 2a numbering as interpreted in proleg.robots.hyq_leg).")
     rep.add_parameters(infos["rigid"].parameters, "Model parameters and their sources (MODEL_DATA = /work/shared/MODEL_DATA.md §1).")
-    rep.add_table(pd.DataFrame(runs), "Runs (generalized-α, error-controlled, rtol 1e-6; wall time includes compilation).", float_format="{:.4g}")
+    rep.add_table(pd.DataFrame(runs), "Runs (generalized-α, error-controlled, rtol 1e-6: impact peaks to about 0.5 %, checked against rtol 1e-8; wall time includes compilation).", float_format="{:.4g}")
     rep.add_key_values({"total wall time [s]": f"{time.perf_counter() - wall0:.1f}", "output folder": str(out)}, "Run")
     return rep.save(out / "hyq_drop_report.html")
 

@@ -135,6 +135,33 @@ def _contact_names(result):
     return [n for g in result.system.topo.extensions if g.kind == "contact" for n in g.names]
 
 
+_TORQUE_MARKERS = ("hip.I", "hip.J", "knee.I", "knee.J", "hip_actuator.I", "hip_actuator.J", "knee_actuator.I", "knee_actuator.J")
+
+
+@jax.jit
+def _torque_pieces(system, q, t):
+    """Φ_q, ∂(z, θ1, θ2)/∂q, ∂(ℓ_hip, ℓ_knee)/∂q and the generalized forces without actuators."""
+    from ..analyses.simulate import initial_z
+
+    topo = system.topo
+    mi = {k: topo.marker_names.index(k) for k in _TORQUE_MARKERS}
+    b = topo.body_names.index("slider")
+
+    def coords(qq):
+        _, mk = kinematics(system, qq)
+        th1 = joint_angle(mk.R[mi["hip.I"]][None], mk.R[mi["hip.J"]][None])[0]
+        th2 = joint_angle(mk.R[mi["knee.I"]][None], mk.R[mi["knee.J"]][None])[0]
+        ell = [jnp.linalg.norm(mk.r[mi[f"{s}_actuator.I"]] - mk.r[mi[f"{s}_actuator.J"]]) for s in ("hip", "knee")]
+        return jnp.stack([qq[7 * b + 2], th1, th2]), jnp.stack(ell)
+
+    Pq = jax.jacfwd(lambda x: constraints(system, x, t))(q)
+    G = jax.jacfwd(lambda x: coords(x)[0])(q)
+    L = jax.jacfwd(lambda x: coords(x)[1])(q)
+    passive = system.with_params(hydraulic_actuator_stiffness=jnp.zeros(2), hydraulic_actuator_damping=jnp.zeros(2))
+    Q = generalized_forces(passive, q, jnp.zeros_like(q), t, jnp.zeros_like(initial_z(system)))
+    return Pq, G, L, Q
+
+
 def joint_torques(system, q, t: float = 0.0) -> dict:
     """Joint torques by virtual work at a static pose ``q`` of the **rigid** model.
 
@@ -145,37 +172,12 @@ def joint_torques(system, q, t: float = 0.0) -> dict:
     lever arms (MODEL_DATA §1: +l1, −l2). In equilibrium F_cyl · dℓ/dθ = τ exactly.
 
     Returns dict with ``hip_torque``, ``knee_torque`` [N m], ``hip_lever``, ``knee_lever`` [m]
-    (signed, from the model), ``cross`` (dℓ_hip/dθ2, dℓ_knee/dθ1, both 0 for this linkage).
+    (signed, from the model), ``cross`` (dℓ_hip/dθ2, dℓ_knee/dθ1, both 0 for this linkage) and
+    ``vertical_force`` [N] (generalized force along the slider of the non-actuator loads).
     """
-    topo = system.topo
-    if len(topo.joints) and not any(j.name == "hip" for j in topo.joints):
+    if not any(j.name == "hip" for j in system.topo.joints):
         raise ModelError("joint_torques needs the rigid model (joints='rigid'): the bushing models have no hip joint to rotate.")
-    names = topo.marker_names
-    mi = {k: names.index(k) for k in ("hip.I", "hip.J", "knee.I", "knee.J", "hip_actuator.I", "hip_actuator.J", "knee_actuator.I", "knee_actuator.J")}
-    b = topo.body_names.index("slider")
-    q = jnp.asarray(q)
-
-    def coords(qq):
-        _, mk = kinematics(system, qq)
-        th1 = joint_angle(mk.R[mi["hip.I"]][None], mk.R[mi["hip.J"]][None])[0]
-        th2 = joint_angle(mk.R[mi["knee.I"]][None], mk.R[mi["knee.J"]][None])[0]
-        ell = [jnp.linalg.norm(mk.r[mi[f"{s}_actuator.I"]] - mk.r[mi[f"{s}_actuator.J"]]) for s in ("hip", "knee")]
-        return jnp.stack([qq[7 * b + 2], th1, th2]), jnp.stack(ell)
-
-    @jax.jit
-    def pieces(qq):
-        Pq = jax.jacfwd(lambda x: constraints(system, x, t))(qq)
-        G = jax.jacfwd(lambda x: coords(x)[0])(qq)
-        L = jax.jacfwd(lambda x: coords(x)[1])(qq)
-        passive = system.with_params(
-            hydraulic_actuator_stiffness=jnp.zeros(2), hydraulic_actuator_damping=jnp.zeros(2)
-        )
-        from ..analyses.simulate import initial_z
-
-        Q = generalized_forces(passive, qq, jnp.zeros_like(qq), t, jnp.zeros_like(initial_z(system)))
-        return Pq, G, L, Q
-
-    Pq, G, L, Q = (np.asarray(a) for a in pieces(q))
+    Pq, G, L, Q = (np.asarray(a) for a in _torque_pieces(system, jnp.asarray(q), jnp.asarray(t, jnp.float64)))
     A = np.vstack([Pq, G])
     if A.shape[0] != A.shape[1]:
         raise ModelError(f"joint_torques: expected a 3-DOF rigid model, the constraint set has {Pq.shape[0]} rows for {Pq.shape[1]} coordinates.")

@@ -99,6 +99,9 @@ class StepOptions:
     newton_tol: float = 1e-3  # on the weighted RMS of Δq, in units of the error tolerance
     max_newton: int = 10
     phi_tol: float = 1e-10
+    # Refresh the iteration matrix inside a step when Newton contracts slowly. Off under jax.vmap
+    # (a lax.cond becomes a select there and would rebuild the Jacobian every iteration).
+    jacobian_refresh: bool = True
 
 
 def _weights(system: System, q, opts: StepOptions):
@@ -164,7 +167,8 @@ def step(system: System, integrator, st: StepState, h, opts: StepOptions):
         # Modified Newton: the iteration matrix is (re)built only on the first iteration and
         # when the contraction is slow; a single jacfwd site keeps compile time down.
         x, lu, k, err, prev, conv, bad, _, need = c
-        lu = jax.lax.cond(need, jac_lu, lambda _: lu, x)
+        if opts.jacobian_refresh:
+            lu = jax.lax.cond(need, jac_lu, lambda _: lu, x)
         r = residual(x)
         dx = -lu_solve(lu, r)
         x = x + dx
@@ -175,8 +179,11 @@ def step(system: System, integrator, st: StepState, h, opts: StepOptions):
         need = (k > 0) & (e > 0.3 * err) & ~conv
         return x, lu, k + 1, e, err, conv, bad, r, need
 
-    lu_init = (jnp.zeros((n, n)), jnp.zeros(n, jnp.int32))
-    init = (x0, lu_init, jnp.array(0), jnp.array(jnp.inf), jnp.array(0.0), jnp.array(False), jnp.array(False), jnp.zeros(n), jnp.array(True))
+    if opts.jacobian_refresh:
+        lu_init = (jnp.zeros((n, n)), jnp.zeros(n, jnp.int32))
+    else:
+        lu_init = jac_lu(x0)
+    init = (x0, lu_init, jnp.array(0), jnp.array(jnp.inf), jnp.array(0.0), jnp.array(False), jnp.array(False), jnp.zeros(n), jnp.array(opts.jacobian_refresh))
     x, _, iters, _, _, conv, bad, r, _ = jax.lax.while_loop(cond, body, init)
     q1 = x[:nq]
     a1, v1, qdd1 = update(q1)
