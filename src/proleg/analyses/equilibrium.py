@@ -171,15 +171,22 @@ def solve_equilibrium(
     return Equilibrium(system, np.asarray(x[:nq]), np.asarray(x[nq:]), float(t), fr, cr, it)
 
 
-def _project(system, q, t, nb):
+@jax.jit
+def _project_step(system, q, t):
     from ..solvers.initial import _normalize_p
 
+    phi = constraints(system, q, t)
+    Pq = jax.jacfwd(lambda qq: constraints(system, qq, t))(q)
+    return _normalize_p(q - jnp.linalg.lstsq(Pq, phi)[0], system.topo.nbody), jnp.max(jnp.abs(phi))
+
+
+def _project(system, q, t, nb):
+    """Back onto Φ(q, t) = 0 by minimum-norm Gauss-Newton steps."""
     for _ in range(20):
-        phi = constraints(system, q, t)
-        if float(jnp.max(jnp.abs(phi))) < 1e-13:
+        q_new, res = _project_step(system, q, t)
+        if float(res) < 1e-13:
             break
-        Pq = jax.jacfwd(lambda qq: constraints(system, qq, t))(q)
-        q = _normalize_p(q - jnp.linalg.lstsq(Pq, phi)[0], nb)
+        q = q_new
     return q
 
 

@@ -81,8 +81,27 @@ class LinearModel:
         return Modes(fn, np.array(fd), np.array(zz), shapes)
 
 
+@jax.jit
+def _linear_pieces(system, q0, lam, t, z0):
+    from ..solvers.driver import sample_controllers
+
+    def f(q, v):
+        _, vjp = jax.vjp(lambda qq: constraints(system, qq, t), q)
+        z = sample_controllers(system, t, q, v, z0, True)
+        return vjp(lam)[0] - generalized_forces(system, q, v, t, z)
+
+    v0 = jnp.zeros_like(q0)
+    K = jax.jacfwd(f, 0)(q0, v0)
+    C = jax.jacfwd(f, 1)(q0, v0)
+    M = mass_matrix(system, q0)
+    Pq = jax.jacfwd(lambda qq: constraints(system, qq, t))(q0)
+    return K, C, M, Pq
+
+
 def linearize(system: System, state=None, t: float = 0.0) -> LinearModel:
     """Linear model about ``state`` (an :class:`Equilibrium`, or q with zero velocity).
+
+    Controllers enter with their static law (sampled continuously at the state).
 
     K includes the geometric stiffness of the constraint reactions, (Φ_qᵀλ)_q.
     """

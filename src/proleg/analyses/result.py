@@ -115,8 +115,7 @@ class Result:
     # -- accelerations and multipliers at the outputs (note §5) --------------------------------
     @cached_property
     def _acc(self):
-        f = jax.jit(jax.vmap(kkt_accelerations, in_axes=(None, 0, 0, 0, 0)))
-        return f(self.system, self.q, self.v, jnp.asarray(self.t), self.z)
+        return _kkt_batch(self.system, self.q, self.v, jnp.asarray(self.t), self.z)
 
     @property
     def qdd(self):
@@ -140,8 +139,7 @@ class Result:
     # -- markers -------------------------------------------------------------------------------
     @cached_property
     def _marker_kin(self):
-        f = jax.jit(jax.vmap(lambda q, v: kinematics(self.system, q, v)[1]))
-        return f(self.q, self.v)
+        return _marker_batch(self.system, self.q, self.v)
 
     def marker(self, name):
         m = self._index(self.system.topo.marker_names, name, "marker")
@@ -151,7 +149,7 @@ class Result:
     # -- joints --------------------------------------------------------------------------------
     @cached_property
     def _reactions(self):
-        return jax.jit(_joint_reactions)(self.system, self.q, jnp.asarray(self.t), self.lam)
+        return _reactions_jit(self.system, self.q, jnp.asarray(self.t), self.lam)
 
     def joint(self, name) -> JointResult:
         owners = [o.name for o in self.system.topo.ct.owners]
@@ -162,18 +160,7 @@ class Result:
     # -- force elements ------------------------------------------------------------------------
     @cached_property
     def _element_outputs(self):
-        sys_ = self.system
-
-        def one(q, v, t, z):
-            bk, mk = kinematics(sys_, q, v)
-            ctx = StateView(sys_.topo, bk, mk, t, z)
-            return {
-                g.kind: {k: val for k, (val, unit) in g.outputs(sys_.params, mk, t, ctx).items()}
-                for g in sys_.topo.groups + sys_.topo.extensions
-                if len(g) and hasattr(g, "outputs")
-            }
-
-        return jax.jit(jax.vmap(one))(self.q, self.v, jnp.asarray(self.t), self.z)
+        return _outputs_batch(self.system, self.q, self.v, jnp.asarray(self.t), self.z)
 
     def element_units(self):
         out = {}
@@ -252,14 +239,13 @@ class Result:
     @cached_property
     def energy(self) -> ElementResult:
         """kinetic, potential, dissipated, input and total = T + V + dissipated − input [J]."""
-        T, V = jax.jit(jax.vmap(lambda q, v, t, z: kinematic_energy_terms(self.system, q, v, t, z)))(self.q, self.v, jnp.asarray(self.t), self.z)
+        T, V = _energy_batch(self.system, self.q, self.v, jnp.asarray(self.t), self.z)
         D, W = self.w[:, 0], self.w[:, 1]
         return ElementResult(kinetic=self._np(T), potential=self._np(V), dissipated=self._np(D), input=self._np(W), total=self._np(T + V + D - W))
 
     def constraint_residual(self):
         """max |Φ| at each output time."""
-        f = jax.jit(jax.vmap(lambda q, t: jnp.max(jnp.abs(constraints(self.system, q, t)))))
-        return self._np(f(self.q, jnp.asarray(self.t)))
+        return self._np(_residual_batch(self.system, self.q, jnp.asarray(self.t)))
 
     # -- export ----------------------------------------------------------------------------------
     def to_frame(self):
@@ -393,3 +379,23 @@ def _owner_markers(topo):
         mi.append(idx[o.marker_i.name])
         mj.append(idx[o.marker_j.name])
     return mi, mj
+
+
+# Module-level compiled post-processing: the System is an argument (its topology is static), so
+# every Result of the same model reuses the same executables.
+def _one_outputs(system, q, v, t, z):
+    bk, mk = kinematics(system, q, v)
+    ctx = StateView(system.topo, bk, mk, t, z, system.params)
+    return {
+        g.kind: {k: val for k, (val, unit) in g.outputs(system.params, mk, t, ctx).items()}
+        for g in system.topo.groups + system.topo.extensions
+        if len(g) and hasattr(g, "outputs")
+    }
+
+
+_kkt_batch = jax.jit(jax.vmap(kkt_accelerations, in_axes=(None, 0, 0, 0, 0)))
+_marker_batch = jax.jit(jax.vmap(lambda s, q, v: kinematics(s, q, v)[1], in_axes=(None, 0, 0)))
+_reactions_jit = jax.jit(_joint_reactions)
+_outputs_batch = jax.jit(jax.vmap(_one_outputs, in_axes=(None, 0, 0, 0, 0)))
+_energy_batch = jax.jit(jax.vmap(kinematic_energy_terms, in_axes=(None, 0, 0, 0, 0)))
+_residual_batch = jax.jit(jax.vmap(lambda s, q, t: jnp.max(jnp.abs(constraints(s, q, t))), in_axes=(None, 0, 0)))

@@ -363,8 +363,8 @@ def write_drop_report(out_dir, outs: list[dict], *, t_end: float, gain: str = "h
     summ.to_csv(out / "summary.csv")
     figs = [
         (overlay_figure(frames, "slider displacement [m]", "slider displacement [mm]", bench_df, "slider", 1e3), "Slider vertical displacement from release, three models and the synthetic bench record (seed 001 Figs. 4, 7, 10)."),
-        (overlay_figure(frames, "hip force [N]", "hip cylinder force [N]", bench_df, "hip"), f"Hip cylinder (load-cell) force, positive pushing (seed 000 Fig. 5a; seed 001 Figs. 5, 8, 11), P = {D.P_GAIN[gain]:g} N m/rad."),
-        (overlay_figure(frames, "knee force [N]", "knee cylinder force [N]", bench_df, "knee"), "Knee cylinder (load-cell) force, positive pushing (seed 000 Fig. 5b; seed 001 Figs. 6, 9, 12)."),
+        (overlay_figure(frames, "hip force [N]", "hip cylinder force [N]", bench_df, "hip", t_max=min(t_end, 0.5)), f"Hip cylinder (load-cell) force (first 0.5 s), positive pushing (seed 000 Fig. 5a; seed 001 Figs. 5, 8, 11), P = {D.P_GAIN[gain]:g} N m/rad."),
+        (overlay_figure(frames, "knee force [N]", "knee cylinder force [N]", bench_df, "knee", t_max=min(t_end, 0.5)), "Knee cylinder (load-cell) force (first 0.5 s), positive pushing (seed 000 Fig. 5b; seed 001 Figs. 6, 9, 12)."),
         (grid_figure(frames, bench_df), "Seed 001 Figs. 4-12 layout: each model against the synthetic bench record (rows: RCM, FCM-4, FCM-8; columns: slider displacement, hip force, knee force)."),
         (impact_figure(frames), "Zoom on the first impact: cylinder forces and vertical GRF against the time after first contact."),
         (angles_figure(frames), "Joint angles SU (vertical to upper leg, = HFE θ1) and UL (upper to lower leg, = KFE θ2)."),

@@ -94,6 +94,9 @@ def advance(system, integrator, dopts: DriverOptions, st: StepState, h, out_time
             accept = conv & (err <= 1.0)
             fmax = jnp.where(rejected, 1.0, 2.0)
             fac = jnp.clip(0.9 * jnp.maximum(err, 1e-10) ** (-1.0 / 3.0), 0.2, fmax)
+            # Keep h when the proposed increase is small: every change of h excites the
+            # ρ∞-decaying oscillation of the a_n history and leads to avoidable rejections.
+            fac = jnp.where((fac >= 1.0) & (fac < 1.2), 1.0, fac)
             h_acc = jnp.where(clipped, jnp.maximum(h_take * fac, h), h_take * fac)
             h_rej = jnp.where(conv, h_take * jnp.minimum(fac, 1.0), 0.25 * h_take)
             # The step sequence is not differentiated (derivatives are those of the discrete map).
