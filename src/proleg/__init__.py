@@ -75,3 +75,4 @@ from . import fn as fn
 from .model.control import StateMachine as StateMachine
 from .model.forces import RotationalBacklash as RotationalBacklash
 from .model.flexible import FlexibleBody as FlexibleBody
+from . import robots as robots

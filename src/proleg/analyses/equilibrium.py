@@ -32,8 +32,12 @@ class Equilibrium:
         """The equilibrium as a one-sample :class:`Result` (part poses, joint reactions, element forces)."""
         from .result import Result
 
-        z = jnp.zeros((1, 0))
-        return Result(self.system, np.array([self.t]), jnp.asarray(self.q)[None], jnp.zeros((1, self.q.size)), jnp.zeros((1, 2)), z, stats=None, message="equilibrium")
+        from ..solvers.driver import sample_controllers
+        from .simulate import initial_z
+
+        q = jnp.asarray(self.q)
+        z = jax.jit(sample_controllers, static_argnums=(5,))(self.system, self.t, q, jnp.zeros_like(q), initial_z(self.system), True)
+        return Result(self.system, np.array([self.t]), q[None], jnp.zeros((1, self.q.size)), jnp.zeros((1, 2)), z[None], stats=None, message="equilibrium")
 
     def __repr__(self):
         return f"Equilibrium({self.system.topo.name!r}: {self.iterations} iterations, |F| = {self.force_residual:.2e}, |Φ| = {self.constraint_residual:.2e})"
@@ -156,6 +160,9 @@ def solve_equilibrium(
         r, J = _newton_pieces(system, x, t)
         fr = float(jnp.max(jnp.abs(r[:nq])))
         cr = float(jnp.max(jnp.abs(r[nq:])))
+        # Stagnation at round-off (stiff bushings: |K| |q| ε exceeds tol): accept a tiny step.
+        if float(jnp.max(jnp.abs(alpha * dx[:nq]))) < 1e-13 and fr < 1e-6 * scale and cr < tol:
+            break
     else:
         cond = np.linalg.cond(np.asarray(J))
         if not np.isfinite(cond) or cond > 1e15:

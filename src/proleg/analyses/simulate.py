@@ -175,6 +175,7 @@ def simulate(
     if not t_end > t0:
         raise ValueError(f"t_end ({t_end}) must be greater than t0 ({t0}).")
     dt_out = float(np.min(np.diff(times))) if len(times) > 1 else t_end - t0
+    dt_out = float(f"{dt_out:.10g}")  # a static option: strip round-off so t_end changes do not recompile
     dopts = DriverOptions(
         step=StepOptions(
             rtol=rtol, atol=atol, atol_p=atol if atol_p is None else atol_p, max_newton=max_newton, jacobian_refresh=jacobian_refresh
