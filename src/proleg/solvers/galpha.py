@@ -154,10 +154,15 @@ def step(system: System, integrator, st: StepState, h, opts: StepOptions):
     x0 = jnp.concatenate([q_star, st.lam / bp])
     w = _weights(system, st.q, opts)
 
-    def jac_lu(x):
-        return lu_factor(jax.jacfwd(residual)(x))
-
     n = x0.shape[0]
+    nc = n - nq
+
+    def jac_lu(x):
+        # Only the nq coordinate columns by forward mode: ∂R/∂μ = [Φ_qᵀ; 0] is the transpose of
+        # the constraint block ∂R_Φ/∂q, so the iteration matrix costs nq JVPs, not nq + nc.
+        Jq = jax.jacfwd(lambda qq: residual(jnp.concatenate([qq, x[nq:]])))(x[:nq])
+        J = jnp.concatenate([Jq, jnp.concatenate([Jq[nq:].T, jnp.zeros((nc, nc))], 0)], 1)
+        return lu_factor(J)
 
     def cond(c):
         x, lu, k, err, prev, conv, bad, r, need = c
