@@ -32,11 +32,11 @@ class Equilibrium:
         """The equilibrium as a one-sample :class:`Result` (part poses, joint reactions, element forces)."""
         from .result import Result
 
-        from ..solvers.driver import sample_controllers
+        from ..solvers.driver import sample_controllers_first
         from .simulate import initial_z
 
         q = jnp.asarray(self.q)
-        z = jax.jit(sample_controllers, static_argnums=(5,))(self.system, self.t, q, jnp.zeros_like(q), initial_z(self.system), True)
+        z = sample_controllers_first(self.system, self.t, q, jnp.zeros_like(q), initial_z(self.system))
         return Result(self.system, np.array([self.t]), q[None], jnp.zeros((1, self.q.size)), jnp.zeros((1, 2)), z[None], stats=None, message="equilibrium")
 
     def __repr__(self):

@@ -78,11 +78,11 @@ def equilibrium_result(eq) -> Result:
     """A one-sample Result of an Equilibrium that carries the servo commands at the equilibrium
     (the controllers' static law, as :func:`proleg.solve_equilibrium` evaluates them)."""
     from ..analyses.simulate import initial_z
-    from ..solvers.driver import sample_controllers
+    from ..solvers.driver import sample_controllers_first
 
     system = eq.system
     q = jnp.asarray(eq.q)
-    z = jax.jit(sample_controllers, static_argnums=(5,))(system, eq.t, q, jnp.zeros_like(q), initial_z(system), True)
+    z = sample_controllers_first(system, eq.t, q, jnp.zeros_like(q), initial_z(system))
     return Result(system, np.array([eq.t]), q[None], jnp.zeros((1, q.size)), jnp.zeros((1, 2)), z[None], message="equilibrium")
 
 

@@ -36,6 +36,11 @@ def sample_controllers(system, t, q, v, z, first=False):
     return z
 
 
+# Compiled once per model (the System's topology is static): the first sample of a run, or the
+# static controller law in statics.
+sample_controllers_first = jax.jit(partial(sample_controllers, first=True))
+
+
 def _sample_update(system, st: StepState):
     """A controller sample. The held commands jump, so the accelerations are re-initialised from
     the KKT system at the new commands (like a restart), instead of being smeared over a step."""
