@@ -21,7 +21,6 @@ from .constraints import _oh, joint_angle
 
 class AbstractGroup:
     kind = ""
-    prefix = ""
 
     def __init__(self, elements, marker_index: dict, nm: int):
         self.elements = list(elements)
@@ -31,8 +30,10 @@ class AbstractGroup:
     def __len__(self):
         return len(self.elements)
 
+    fields: tuple = ()  # element attributes that become parameter arrays "<kind>_<field>"
+
     def params(self) -> dict:
-        return {}
+        return {f"{self.kind}_{f}": np.array([getattr(e, f) for e in self.elements], float) for f in self.fields}
 
     def index(self, name: str) -> int:
         return self.names.index(name)
@@ -69,16 +70,7 @@ class TwoMarkerGroup(AbstractGroup):
 
 class SpringDamperGroup(TwoMarkerGroup):
     kind = "spring_damper"
-    prefix = "spring_damper"
-
-    def params(self):
-        e = self.elements
-        return {
-            "spring_damper_stiffness": np.array([x.stiffness for x in e]),
-            "spring_damper_damping": np.array([x.damping for x in e]),
-            "spring_damper_free_length": np.array([x.free_length for x in e]),
-            "spring_damper_preload": np.array([x.preload for x in e]),
-        }
+    fields = ("stiffness", "damping", "free_length", "preload")
 
     def _law(self, P, mk):
         rI, rJ, vI, vJ = self._ends(mk)
@@ -117,23 +109,18 @@ class SpringDamperGroup(TwoMarkerGroup):
 
 class RotationalSpringDamperGroup(TwoMarkerGroup):
     kind = "rotational_spring_damper"
+    fields = ("stiffness", "damping", "free_angle", "preload")
 
-    def params(self):
-        e = self.elements
-        return {
-            "rotational_spring_damper_stiffness": np.array([x.stiffness for x in e]),
-            "rotational_spring_damper_damping": np.array([x.damping for x in e]),
-            "rotational_spring_damper_free_angle": np.array([x.free_angle for x in e]),
-            "rotational_spring_damper_preload": np.array([x.preload for x in e]),
-        }
-
-    def _law(self, P, mk):
+    def _relative_rotation(self, mk):
+        """z_J, the angle of I relative to J about it, and its rate."""
         R9 = mk.R.reshape(-1, 9)
         RI = (self.oh_i @ R9).reshape(-1, 3, 3)
         RJ = (self.oh_j @ R9).reshape(-1, 3, 3)
         z = RJ[:, :, 2]
-        th = joint_angle(RI, RJ)
-        rate = jnp.sum(z * (self.oh_i @ mk.w - self.oh_j @ mk.w), -1)
+        return z, joint_angle(RI, RJ), jnp.sum(z * (self.oh_i @ mk.w - self.oh_j @ mk.w), -1)
+
+    def _law(self, P, mk):
+        z, th, rate = self._relative_rotation(mk)
         ext = th - P["rotational_spring_damper_free_angle"]
         tq = (
             -P["rotational_spring_damper_stiffness"] * ext
@@ -280,26 +267,13 @@ class RotationalBacklashGroup(RotationalSpringDamperGroup):
     """Dead band + spring-damper about z_J (seed 003 Model II); smooth C1 contact gate."""
 
     kind = "rotational_backlash"
-
-    def params(self):
-        e = self.elements
-        return {
-            "rotational_backlash_stiffness": np.array([x.stiffness for x in e]),
-            "rotational_backlash_damping": np.array([x.damping for x in e]),
-            "rotational_backlash_free_angle": np.array([x.free_angle for x in e]),
-            "rotational_backlash_half_gap": np.array([x.half_gap for x in e]),
-            "rotational_backlash_width": np.array([x.width for x in e]),
-        }
+    fields = ("stiffness", "damping", "free_angle", "half_gap", "width")
 
     def _bl(self, P, mk):
         from ..drives.backlash import deadband_smooth
 
-        R9 = mk.R.reshape(-1, 9)
-        RI = (self.oh_i @ R9).reshape(-1, 3, 3)
-        RJ = (self.oh_j @ R9).reshape(-1, 3, 3)
-        z = RJ[:, :, 2]
-        th = joint_angle(RI, RJ) - P["rotational_backlash_free_angle"]
-        rate = jnp.sum(z * (self.oh_i @ mk.w - self.oh_j @ mk.w), -1)
+        z, th, rate = self._relative_rotation(mk)
+        th = th - P["rotational_backlash_free_angle"]
         w = jnp.maximum(P["rotational_backlash_width"], 1e-12)
         delta, gate = deadband_smooth(th, P["rotational_backlash_half_gap"], w)
         tq = -P["rotational_backlash_stiffness"] * delta - gate * P["rotational_backlash_damping"] * rate

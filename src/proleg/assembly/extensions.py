@@ -368,7 +368,6 @@ def build_extensions(model, topo, marker_index, params):
         groups.append(ctrl)
         pids = [e for e in model.controllers if e.kind == "pid"]
         if pids:
-            q0 = params["q_init"]
             params["controller_setpoint0"] = np.zeros(len(pids))  # filled after assembly (modelled pose)
     for kind in ("joint_actuator", "translational_actuator", "hydraulic_actuator"):
         elems = [a for a in model.actuators if a.kind == kind]

@@ -212,8 +212,6 @@ class StateView:
         name = getattr(contact, "name", contact)
         for g in self._topo.extensions:
             if g.kind == "contact" and name in g.names:
-                from types import SimpleNamespace
-
                 out = g.outputs(self._P, self._mk, self.t, self)
                 return out["normal_force"][0][g.names.index(name)]
         raise ModelError(f"State access: no contact named '{name}'.")
