@@ -135,6 +135,7 @@ def simulate(
     fixed_step: float | None = None,
     max_newton: int = 10,
     jacobian_refresh: bool = True,
+    jacobian_reuse: bool = False,
     q0=None,
     v0=None,
     progress: bool | None = None,
@@ -154,8 +155,11 @@ def simulate(
     throw : raise :class:`SolverError` on failure (its ``.result`` holds what was computed);
         otherwise return a Result whose ``status``/``message`` say what happened
     on_chunk : callable(Result) called after each chunk (e.g. to write partial results)
-    jacobian_refresh : rebuild the Newton matrix within a step when convergence is slow (default);
-        pass False inside ``jax.vmap`` batches (one Jacobian per step, no branch)
+    jacobian_reuse : keep the Newton matrix across steps (modified Newton, as in Adams): fewer
+        matrix builds, linear convergence; see :class:`proleg.solvers.galpha.StepOptions`.
+        Under ``jax.vmap`` the rebuild decisions are batch-wide (solvers/batching.py).
+    jacobian_refresh : accepted for compatibility; ``False`` forces a fresh matrix every step
+        (the default already builds one per step)
 
     Works under ``jax.vmap`` and ``jax.jacfwd`` (the Python loop over chunks is static).
     """
@@ -178,7 +182,8 @@ def simulate(
     dt_out = float(f"{dt_out:.10g}")  # a static option: strip round-off so t_end changes do not recompile
     dopts = DriverOptions(
         step=StepOptions(
-            rtol=rtol, atol=atol, atol_p=atol if atol_p is None else atol_p, max_newton=max_newton, jacobian_refresh=jacobian_refresh
+            rtol=rtol, atol=atol, atol_p=atol if atol_p is None else atol_p, max_newton=max_newton,
+            jacobian_reuse=bool(jacobian_reuse and jacobian_refresh),
         ),
         dt_min=dt_min,
         dt_max=float(dt_max if dt_max is not None else min(dt_out, 1e-2)),
@@ -192,6 +197,7 @@ def simulate(
     st = StepState(
         t=jnp.asarray(t0, jnp.float64), q=q, v=v, a=qdd, qdd=qdd, lam=lam,
         h_prev=jnp.asarray(1.0), w=jnp.zeros(2), pw=pw, z=z0, g=g0,
+        Jinv=jnp.zeros((system.nq + system.nc,) * 2), jac_h=jnp.asarray(0.0), jac_ok=jnp.asarray(False), jac_hold=jnp.asarray(0), jac_pen=jnp.asarray(0),
     )
     h = jnp.asarray(dt_init if dt_init is not None else (fixed_step or min(1e-4, dopts.dt_max)), jnp.float64)
     st = st._replace(h_prev=h)

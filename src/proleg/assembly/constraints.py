@@ -1,7 +1,7 @@
 """Constraint equations Φ(q, t) from Haug's basic constraints (formulation note §2).
 
 Joint equations are decomposed into primitive rows, grouped by kind and evaluated vectorised
-(one-hot selections of marker frames), so compile time does not grow with the number of joints:
+(constant-index selections of marker frames, select.py), so compile time does not grow with the number of joints:
 
 - ``sph``:  component k of d = r_J − r_I (ground)
 - ``dot1``: a_I · b_J   (axes of the I and J marker frames)
@@ -18,12 +18,14 @@ from dataclasses import dataclass, field
 import jax.numpy as jnp
 import numpy as np
 
+from .select import Select
+
 
 @dataclass(eq=False)
 class ConstraintTopology:
     """Static description of the kept constraint rows (numpy arrays, hashed by identity)."""
 
-    sph_i: np.ndarray  # (n, nm) one-hot
+    sph_i: Select  # (n, nm) selection of marker rows
     sph_j: np.ndarray
     sph_k: np.ndarray  # (n, 3) one-hot component
     d1_i: np.ndarray
@@ -51,10 +53,8 @@ class ConstraintTopology:
 
 
 def _oh(idx, n):
-    out = np.zeros((len(idx), n))
-    if len(idx):
-        out[np.arange(len(idx)), np.asarray(idx, int)] = 1.0
-    return out
+    """Selection of rows ``idx`` out of ``n`` (gather / scatter-add, see select.py)."""
+    return Select(idx, n)
 
 
 def build_constraint_topology(rows, nm: int, nbody: int, owners) -> ConstraintTopology:

@@ -17,6 +17,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .constraints import _oh, joint_angle
+from ..spatial.rotation import mv
 
 
 class AbstractGroup:
@@ -158,9 +159,9 @@ def bushing_kinematics(RI, RJ, rI, rJ, vI, vJ, wI, wJ):
     """Displacement [d; (a, b, c)] and velocity [ḋ; ω_rel] of I relative to J in J axes (note §3)."""
     delta = rI - rJ
     RJt = jnp.swapaxes(RJ, -1, -2)
-    d = jnp.einsum("nij,nj->ni", RJt, delta)
-    dd = jnp.einsum("nij,nj->ni", RJt, vI - vJ - jnp.cross(wJ, delta))
-    wrel = jnp.einsum("nij,nj->ni", RJt, wI - wJ)
+    d = mv(RJt, delta)
+    dd = mv(RJt, vI - vJ - jnp.cross(wJ, delta))
+    wrel = mv(RJt, wI - wJ)
     xI, zI = RI[:, :, 0], RI[:, :, 2]
     xJ, yJ, zJ = RJ[:, :, 0], RJ[:, :, 1], RJ[:, :, 2]
     zz = jnp.sum(zI * zJ, -1)
@@ -191,15 +192,15 @@ class BushingGroup(TwoMarkerGroup):
         rI, rJ, vI, vJ = self._ends(mk)
         delta, x, xd = bushing_kinematics(RI, RJ, rI, rJ, vI, vJ, self.oh_i @ mk.w, self.oh_j @ mk.w)
         xe = x - P["bushing_free"]
-        fe = -jnp.einsum("nij,nj->ni", P["bushing_stiffness"], xe)
-        fd = -jnp.einsum("nij,nj->ni", P["bushing_damping"], xd)
+        fe = -mv(P["bushing_stiffness"], xe)
+        fd = -mv(P["bushing_damping"], xd)
         f = fe + fd + P["bushing_preload"]
         return RJ, delta, x, xd, xe, f, fd
 
     def loads(self, P, mk, t, ctx):
         RJ, delta, _, _, _, f, _ = self._law(P, mk)
-        F = jnp.einsum("nij,nj->ni", RJ, f[:, :3])
-        T = jnp.einsum("nij,nj->ni", RJ, f[:, 3:])
+        F = mv(RJ, f[:, :3])
+        T = mv(RJ, f[:, 3:])
         return pair_loads(self.oh_i, self.oh_j, F, T, delta)
 
     def potential(self, P, mk, t, ctx):
@@ -213,8 +214,8 @@ class BushingGroup(TwoMarkerGroup):
     def outputs(self, P, mk, t, ctx):
         RJ, _, x, xd, _, f, fd = self._law(P, mk)
         return {
-            "force": (jnp.einsum("nij,nj->ni", RJ, f[:, :3]), "N"),
-            "torque": (jnp.einsum("nij,nj->ni", RJ, f[:, 3:]), "N m"),
+            "force": (mv(RJ, f[:, :3]), "N"),
+            "torque": (mv(RJ, f[:, 3:]), "N m"),
             "force_local": (f[:, :3], "N"),
             "torque_local": (f[:, 3:], "N m"),
             "deformation": (x[:, :3], "m"),
@@ -231,6 +232,8 @@ class PartLoadGroup(AbstractGroup):
         self.kind = kind
         self.oh = _oh([marker_index[id(e.marker)] for e in self.elements], nm)
         self.const = np.array([e.fn is None for e in self.elements], bool)
+        # A function of the state may read any part: the Jacobian pattern is then taken dense.
+        self.state_dependent = any(e.fn is not None and e.arity >= 2 for e in self.elements)
 
     def params(self):
         vals = np.array([e.value if e.fn is None else np.zeros(3) for e in self.elements]).reshape(-1, 3)

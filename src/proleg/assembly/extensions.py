@@ -212,6 +212,14 @@ class ControllerGroup(AbstractGroup):
 
 # ---------------------------------------------------------------------------------------------
 class _CommandMixin:
+    @property
+    def state_dependent(self) -> bool:
+        """A command given as f(t, state) may read any part (Jacobian pattern taken dense)."""
+        from ..model.forces import _callable_arity
+
+        fns = [getattr(e, "effort", None) for e in self.elements] + [getattr(e, "force", None) for e in self.elements]
+        return any(callable(f) and _callable_arity(f) >= 2 for f in fns)
+
     def _command(self, P, t, ctx, const_key, fns):
         vals = []
         for k, e in enumerate(self.elements):

@@ -1,8 +1,7 @@
 """Body and marker kinematics from the absolute coordinates (formulation note §0-§1).
 
 Arrays are struct-of-arrays over bodies; row ``nbody`` is ground (r = 0, A = I). Marker
-quantities are gathered with constant one-hot matrices (small matmuls are faster than XLA
-gathers on CPU inside Newton loops).
+quantities are gathered with constant indices (select.py).
 """
 
 from __future__ import annotations
@@ -11,7 +10,7 @@ from typing import NamedTuple
 
 import jax.numpy as jnp
 
-from ..spatial.rotation import A_of_p, G_of_p, L_of_p
+from ..spatial.rotation import A_of_p, G_of_p, L_of_p, mm, mv
 
 
 class BodyKin(NamedTuple):
@@ -46,21 +45,21 @@ def body_kin(nbody: int, q, v=None) -> BodyKin:
         vb = v[: 7 * nbody].reshape(nbody, 7)
         rd = jnp.concatenate([vb[:, :3], jnp.zeros((1, 3), v.dtype)], 0)
         pd = jnp.concatenate([vb[:, 3:], jnp.zeros((1, 4), v.dtype)], 0)
-        w = 2.0 * jnp.einsum("bij,bj->bi", G_of_p(p), pd)
+        w = 2.0 * mv(G_of_p(p), pd)
     return BodyKin(r, p, A, rd, w)
 
 
 def marker_kin(onehot, marker_s, marker_C, bk: BodyKin, flex=None) -> MarkerKin:
-    """Marker frames; ``onehot`` is the constant (nm, nb+1) marker→body matrix.
+    """Marker frames; ``onehot`` is the constant (nm, nb+1) marker→body selection (select.Select).
 
     ``flex = (eta, etad, phi, psi)`` adds the deformation of markers on flexible bodies:
     s' = s'_0 + Φ η, C = (I + (Ψ η)~) C_0, with the deformation velocities in v and ω.
     """
-    Ab = jnp.einsum("mb,bij->mij", onehot, bk.A)
+    Ab = onehot @ bk.A
     w = onehot @ bk.w
     if flex is None:
-        s = jnp.einsum("mij,mj->mi", Ab, marker_s)
-        R = Ab @ marker_C
+        s = mv(Ab, marker_s)
+        R = mm(Ab, marker_C)
         v = onehot @ bk.rd + jnp.cross(w, s)
     else:
         eta, etad, phi, psi = flex

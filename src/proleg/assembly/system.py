@@ -18,10 +18,12 @@ import numpy as np
 from ..errors import ModelError
 from ..model.forces import Bushing, Force, RotationalBacklash, RotationalSpringDamper, SpringDamper, Torque
 from ..model.model import Model
-from ..spatial.rotation import G_of_p, L_of_p, p_from_matrix
+from ..spatial.rotation import G_of_p, L_of_p, mtv, mv, p_from_matrix
 from .constraints import ConstraintTopology, build_constraint_topology, constraint_values
 from .elements import BushingGroup, PartLoadGroup, RotationalBacklashGroup, RotationalSpringDamperGroup, SpringDamperGroup
 from .kinematics import body_kin, marker_kin
+from .select import Select
+from .sparsity import jacobian_coloring
 
 
 @dataclass(eq=False)
@@ -32,7 +34,7 @@ class Topology:
     body_names: list
     marker_names: list
     marker_body: np.ndarray  # (nm,) body index; nbody = ground
-    marker_oh: np.ndarray  # (nm, nb+1)
+    marker_oh: Select  # (nm, nb+1) marker → body
     joints: list  # model joint objects (kept for names, kinds and marker indices)
     joint_marker_i: np.ndarray
     joint_marker_j: np.ndarray
@@ -43,6 +45,7 @@ class Topology:
     model: Model = None
     flex: object = None  # FlexGroup or None
     n_eta: int = 0
+    coloring: object = None  # sparsity.Coloring of the Newton matrix (set by assemble)
 
     @property
     def nbody(self) -> int:
@@ -243,8 +246,8 @@ def mass_action(system: System, q, qdd):
     qb, ab = q[: 7 * nb].reshape(nb, 7), qdd[: 7 * nb].reshape(nb, 7)
     p = qb[:, 3:]
     L = L_of_p(p)
-    Jp = jnp.einsum("bij,bjk,bk->bi", P["body_inertia"], L, ab[:, 3:])
-    out = jnp.concatenate([P["body_mass"][:, None] * ab[:, :3], 4.0 * jnp.einsum("bji,bj->bi", L, Jp)], 1).reshape(-1)
+    Jp = mv(P["body_inertia"], mv(L, ab[:, 3:]))
+    out = jnp.concatenate([P["body_mass"][:, None] * ab[:, :3], 4.0 * mtv(L, Jp)], 1).reshape(-1)
     if topo.n_eta:
         out = jnp.concatenate([out, jnp.zeros(topo.n_eta)]) + topo.flex.mass_action(P, q, qdd)
     return out
@@ -271,20 +274,20 @@ def generalized_forces(system: System, q, v, t, z=None):
     bk, mk = kinematics(system, q, v)
     Fm, Tm = element_loads(system, bk, mk, t, z)
     # Marker loads → generalized forces: Q_r += F, Q_p += 2 Lᵀ (Aᵀ T + s' × Aᵀ F).
-    AtF = jnp.einsum("mji,mj->mi", mk.Ab, Fm)
-    AtT = jnp.einsum("mji,mj->mi", mk.Ab, Tm)
-    s_loc = jnp.einsum("mji,mj->mi", mk.Ab, mk.s) if topo.n_eta else P["marker_s"]
+    AtF = mtv(mk.Ab, Fm)
+    AtT = mtv(mk.Ab, Tm)
+    s_loc = mtv(mk.Ab, mk.s) if topo.n_eta else P["marker_s"]
     n_local = AtT + jnp.cross(s_loc, AtF)
     Fb = (topo.marker_oh.T @ Fm)[:nb]
     Nb = (topo.marker_oh.T @ n_local)[:nb]
     p = bk.p[:nb]
     L = L_of_p(p)
     pd = v[: 7 * nb].reshape(nb, 7)[:, 3:]
-    wl = 2.0 * jnp.einsum("bij,bj->bi", L, pd)  # body-frame angular velocity
-    Jw = jnp.einsum("bij,bj->bi", P["body_inertia"], wl)
+    wl = 2.0 * mv(L, pd)  # body-frame angular velocity
+    Jw = mv(P["body_inertia"], wl)
     Nb = Nb - jnp.cross(wl, Jw)
     Qr = Fb + P["body_mass"][:, None] * P["gravity"]
-    Qp = 2.0 * jnp.einsum("bji,bj->bi", L, Nb)
+    Qp = 2.0 * mtv(L, Nb)
     Q = jnp.concatenate([Qr, Qp], 1).reshape(-1)
     if topo.n_eta:
         Qe = jnp.einsum("mij,mi->j", P["marker_phi"], AtF) + jnp.einsum("mij,mi->j", P["marker_psi"], AtT)
@@ -296,7 +299,7 @@ def kinetic_energy(system: System, q, v):
     P = system.params
     nb = system.topo.nbody
     vb, qb = v[: 7 * nb].reshape(nb, 7), q[: 7 * nb].reshape(nb, 7)
-    wl = 2.0 * jnp.einsum("bij,bj->bi", L_of_p(qb[:, 3:]), vb[:, 3:])
+    wl = 2.0 * mv(L_of_p(qb[:, 3:]), vb[:, 3:])
     T = 0.5 * jnp.sum(P["body_mass"] * jnp.sum(vb[:, :3] ** 2, -1)) + 0.5 * jnp.sum(
         jnp.einsum("bi,bij,bj->b", wl, P["body_inertia"], wl)
     )
@@ -435,8 +438,7 @@ def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
     marker_index = {id(m): k for k, m in enumerate(markers)}
     nm = len(markers)
     marker_body = np.array([body_index[id(m.part)] for m in markers], int)
-    marker_oh = np.zeros((nm, nb + 1))
-    marker_oh[np.arange(nm), marker_body] = 1.0
+    marker_oh = Select(marker_body, nb + 1)
 
     flex_parts = [p for p in model.parts if getattr(p, "is_flexible", False)]
     params = {
@@ -508,6 +510,7 @@ def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
         kept_rows = [ordered[i] for i in keep]
         topo.ct = build_constraint_topology(kept_rows, nm, nb, owners)
     topo.dropped = dropped
+    topo.coloring = jacobian_coloring(topo)
     system = System({k: jnp.asarray(v, dtype=jnp.float64) for k, v in params.items()}, topo)
     ctrl = next((g for g in extensions if g.kind == "controller"), None)
     if ctrl is not None and "controller_setpoint0" in params:

@@ -60,38 +60,30 @@ def _sample_update(system, st: StepState):
 def advance(system, integrator, dopts: DriverOptions, st: StepState, h, out_times, n_valid):
     """Integrate from ``st`` through ``out_times[:n_valid]``; record q, v, w, z at each.
 
-    Returns (state, h, buffers, stats, status, fail_time, worst_row).
+    A ``lax.scan`` over the output times with, inside, a ``lax.while_loop`` of step attempts
+    up to the next output time: outputs are scan results (no dynamic buffer updates), and
+    under ``jax.vmap`` only the small step state is carried per lane by the inner loop.
+
+    Returns (state, h, number of outputs reached, buffers, stats, status, fail_time, worst_row).
     """
     K = out_times.shape[0]
-    nq = st.q.shape[0]
-    nz = st.z.shape[0]
-    Qb = jnp.zeros((K, nq))
-    Vb = jnp.zeros((K, nq))
-    Wb = jnp.zeros((K, 2))
-    Zb = jnp.zeros((K, nz))
     fixed = dopts.fixed_step is not None
     Ts = dopts.sample_period
     eps_t = 1e-12
 
-    def next_event(t, k):
-        te = out_times[jnp.minimum(k, K - 1)]
+    def next_event(t, te):
         if Ts is not None:
             ts = (jnp.floor(t / Ts + 1e-9) + 1.0) * Ts
             te = jnp.minimum(te, ts)
         return te
 
-    def cond(c):
-        st, h, k, bufs, stats, status, ft, worst, rejected = c
-        return (k < n_valid) & (status == 0)
-
-    def body(c):
-        st, h, k, (Qb, Vb, Wb, Zb), (ns, nr, nn), status, ft, worst, rejected = c
-        te = next_event(st.t, k)
-        rem = te - st.t
+    def attempt(te, c):
+        st, h, (ns, nr, nn), status, ft, worst, rejected = c
+        rem = next_event(st.t, te) - st.t
         h_des = jnp.asarray(dopts.fixed_step) if fixed else h
         h_take = jnp.where(h_des >= rem * (1 - 1e-9), rem, jnp.where(2 * h_des > rem, 0.5 * rem, h_des))
         clipped = h_take < h_des
-        new, err, iters, conv, wrow = step(system, integrator, st, h_take, dopts.step)
+        new, err, iters, conv, wrow, stale_fail = step(system, integrator, st, h_take, dopts.step)
         if fixed:
             accept = conv
             h_next = h
@@ -103,22 +95,19 @@ def advance(system, integrator, dopts: DriverOptions, st: StepState, h, out_time
             # ρ∞-decaying oscillation of the a_n history and leads to avoidable rejections.
             fac = jnp.where((fac >= 1.0) & (fac < 1.2), 1.0, fac)
             h_acc = jnp.where(clipped, jnp.maximum(h_take * fac, h), h_take * fac)
-            h_rej = jnp.where(conv, h_take * jnp.minimum(fac, 1.0), 0.25 * h_take)
+            h_rej = jnp.where(conv, h_take * jnp.minimum(fac, 1.0), jnp.where(stale_fail, h_take, 0.25 * h_take))
             # The step sequence is not differentiated (derivatives are those of the discrete map).
             h_next = jax.lax.stop_gradient(jnp.clip(jnp.where(accept, h_acc, h_rej), 0.0, dopts.dt_max))
-        st2 = jax.tree_util.tree_map(lambda a, b: jnp.where(accept, a, b), new, st)
+        # Accepted: the new state; rejected: the old one, but with the newest Newton matrix.
+        jac_fields = ("Jinv", "jac_h", "jac_ok", "jac_hold", "jac_pen")
+        st2 = StepState(*[
+            getattr(new, f) if f in jac_fields else jnp.where(accept, getattr(new, f), getattr(st, f)) for f in StepState._fields
+        ])
         # Controller sample at its clock ticks.
         if Ts is not None:
             at_tick = accept & (jnp.abs(st2.t / Ts - jnp.round(st2.t / Ts)) < 1e-9 * jnp.maximum(1.0, st2.t / Ts))
             st2 = jax.lax.cond(at_tick, lambda s: _sample_update(system, s), lambda s: s, st2)
-        hit = accept & (jnp.abs(st2.t - out_times[jnp.minimum(k, K - 1)]) <= eps_t * jnp.maximum(1.0, jnp.abs(st2.t)))
-        kk = jnp.minimum(k, K - 1)
-        Qb = Qb.at[kk].set(jnp.where(hit, st2.q, Qb[kk]))
-        Vb = Vb.at[kk].set(jnp.where(hit, st2.v, Vb[kk]))
-        Wb = Wb.at[kk].set(jnp.where(hit, st2.w, Wb[kk]))
-        Zb = Zb.at[kk].set(jnp.where(hit, st2.z, Zb[kk]))
-        k = k + hit.astype(k.dtype)
-        too_small = (~accept) & (h_next < dopts.dt_min) if not fixed else ~accept
+        too_small = (~accept) & (h_next < dopts.dt_min) if not fixed else ~accept & ~stale_fail
         new_status = jnp.where(
             too_small, jnp.where(conv, int(Status.STEP_TOO_SMALL), int(Status.NEWTON_FAILED)), status
         )
@@ -126,9 +115,23 @@ def advance(system, integrator, dopts: DriverOptions, st: StepState, h, out_time
         ft = jnp.where(too_small, st.t + h_take, ft)
         worst = jnp.where(too_small, wrow, worst)
         stats = (ns + accept.astype(ns.dtype), nr + (~accept).astype(nr.dtype), nn + iters)
-        return st2, jnp.maximum(h_next, dopts.dt_min * 0.5), k, (Qb, Vb, Wb, Zb), stats, new_status, ft, worst, ~accept
+        return st2, jnp.maximum(h_next, dopts.dt_min * 0.5), stats, new_status, ft, worst, ~accept
+
+    def reach(carry, xs):
+        te, valid = xs
+        c, k = carry
+
+        def cond(c):
+            st, status = c[0], c[3]
+            return valid & (status == 0) & (st.t < te - eps_t * jnp.maximum(1.0, jnp.abs(te)))
+
+        c = jax.lax.while_loop(cond, partial(attempt, te), c)
+        st, status = c[0], c[3]
+        k = k + (valid & (status == 0)).astype(k.dtype)
+        return (c, k), (st.q, st.v, st.w, st.z)
 
     z0 = jnp.array(0)
-    init = (st, jnp.asarray(h, jnp.float64), z0, (Qb, Vb, Wb, Zb), (z0, z0, z0), jnp.array(0), st.t * 0.0, z0, jnp.array(False))
-    st, h, k, bufs, stats, status, ft, worst, _ = jax.lax.while_loop(cond, body, init)
+    init = (st, jnp.asarray(h, jnp.float64), (z0, z0, z0), jnp.array(0), st.t * 0.0, z0, jnp.array(False))
+    valid = jnp.arange(K) < n_valid
+    ((st, h, stats, status, ft, worst, _), k), bufs = jax.lax.scan(reach, (init, z0), (out_times, valid))
     return st, h, k, bufs, stats, status, ft, worst

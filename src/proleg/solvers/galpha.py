@@ -3,10 +3,16 @@
     M(q) q̈ + Φ_qᵀ λ = Q(q, q̇, t),   Φ(q, t) = 0
 
 following ../shared/notes/formulation.md §4: Newton on x = (q_{n+1}, μ = λ/β') with the scaled
-residual R_q = (1/β')[M q̈ − Q] + Φ_qᵀμ, R_Φ = Φ, the iteration matrix from forward-mode
-autodiff of R (modified Newton: one Jacobian and LU per step, refreshed when convergence is
-slow), the local error estimate e = h²(β − γ/2 + 1/12)(a_{n+1} − a_n) and the rescaling of a_n
-whenever h changes.
+residual R_q = (1/β')[M q̈ − Q] + Φ_qᵀμ, R_Φ = Φ, the local error estimate
+e = h²(β − γ/2 + 1/12)(a_{n+1} − a_n) and the rescaling of a_n whenever h changes.
+
+Newton matrix (modified Newton, as in Adams): [[M − (K + γ/(βh) C)/β', Φ_qᵀ], [Φ_q, 0]] with
+K = ∂Q/∂q, C = ∂Q/∂v, by forward-mode autodiff compressed by the column colouring of
+assembly/sparsity.py (one JVP per colour). The geometric terms ∂(M q̈)/∂q/β' and ∂(Φ_qᵀμ)/∂q
+are left out: they are O(h²) and only slow the contraction, never change the solution. By
+default the matrix is rebuilt every step; with ``StepOptions(jacobian_reuse=True)`` its
+inverse is kept across steps and rebuilt only when Newton contracts slowly, fails, or h has
+moved by more than a factor ``jacobian_h_ratio`` since it was built (bench/README.md).
 
 Choosing values
 ---------------
@@ -23,9 +29,9 @@ from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
-from jax.scipy.linalg import lu_factor, lu_solve
 
 from ..assembly.system import System, constraints, generalized_forces, mass_action, power_terms
+from .batching import any_lane
 
 
 class StepState(NamedTuple):
@@ -40,6 +46,11 @@ class StepState(NamedTuple):
     pw: jnp.ndarray  # (2,) powers at t
     z: jnp.ndarray  # discrete (controller) state, held between samples
     g: jnp.ndarray  # HHT: (Φ_qᵀλ − Q) at t_n
+    Jinv: jnp.ndarray  # (nq + nc, nq + nc) inverse Newton matrix kept across steps
+    jac_h: jnp.ndarray  # step it was built for (0: none yet)
+    jac_ok: jnp.ndarray  # bool: fit for reuse on the next step
+    jac_hold: jnp.ndarray  # int: steps left that take a fresh matrix (after a failed reuse)
+    jac_pen: jnp.ndarray  # int: current hold length (doubles on each failed reuse, up to 64)
 
 
 @dataclass(frozen=True)
@@ -99,9 +110,13 @@ class StepOptions:
     newton_tol: float = 1e-3  # on the weighted RMS of Δq, in units of the error tolerance
     max_newton: int = 10
     phi_tol: float = 1e-10
-    # Refresh the iteration matrix inside a step when Newton contracts slowly. Off under jax.vmap
-    # (a lax.cond becomes a select there and would rebuild the Jacobian every iteration).
-    jacobian_refresh: bool = True
+    # Keep the Newton matrix across steps (rebuilt when Newton contracts slowly, fails, or h
+    # leaves [1/r, r] of the step it was built for; batch-wide under jax.vmap, see batching.py).
+    # Faster, but the iteration converges linearly: velocities carry ~1e-12 Newton noise per
+    # step, which over 1e5 fixed steps shows in conservation checks at the 1e-6 level (a fresh
+    # matrix per step keeps them at 1e-9). Off by default.
+    jacobian_reuse: bool = False
+    jacobian_h_ratio: float = 1.6  # rebuild when h / h_built leaves [1/r, r]
 
 
 def _weights(system: System, q, opts: StepOptions):
@@ -114,14 +129,52 @@ def _wrms(x, w):
     return jnp.sqrt(jnp.mean((x / w) ** 2))
 
 
+def rarely(pred, fn, old, *args):
+    """``fn(*args)`` if ``pred`` else ``old``, for work that is usually skipped.
+
+    A ``lax.while_loop`` that runs zero or one time: on XLA-CPU a ``lax.cond`` costs ~50 µs per
+    call even when its expensive branch is not taken (bench/README.md), a loop that does not
+    run costs almost nothing.
+    """
+
+    def body(c):
+        return jnp.array(False), fn(*args)
+
+    return jax.lax.while_loop(lambda c: c[0], body, (pred, old))[1]
+
+
+def iteration_matrix(system: System, q1, v1, t1, z, bp, cv, mfac):
+    """Newton matrix [[mfac·M − (K + cv·C)/β', Φ_qᵀ], [Φ_q, 0]] at (q1, v1), colour-compressed."""
+    topo = system.topo
+    nq, nc = topo.nq, topo.nc
+    col = topo.coloring
+    S = jnp.asarray(col.seed)
+
+    def g(y):
+        dq = S @ y
+        Rq = mfac * mass_action(system, q1, dq) - generalized_forces(system, q1 + dq, v1 + cv * dq, t1, z) / bp
+        return jnp.concatenate([Rq, constraints(system, q1 + dq, t1)])
+
+    Jc = jax.jacfwd(g)(jnp.zeros(col.ncolors, q1.dtype))[:, col.color]
+    Jqq = jnp.where(col.mask_q, Jc[:nq], 0.0)
+    Pq = jnp.where(col.mask_phi, Jc[nq:], 0.0)
+    return jnp.concatenate([jnp.concatenate([Jqq, Pq.T], 1), jnp.concatenate([Pq, jnp.zeros((nc, nc), q1.dtype)], 1)], 0)
+
+
 def step(system: System, integrator, st: StepState, h, opts: StepOptions):
-    """One step of size h from ``st``. Returns (new state, error norm, iterations, converged, worst row)."""
+    """One step of size h from ``st``.
+
+    Returns (new state, error norm, iterations, converged, worst row, failed with a reused
+    Newton matrix: retry at the same h).
+    """
     nq = system.topo.nq
     am, af, gamma, beta = integrator.coefficients
     t1 = st.t + h
     # Rescale the auxiliary acceleration to the new step (note §4).
     a_n = st.qdd + (h / st.h_prev) * (st.a - st.qdd)
     bp = (1 - am) / (h * h * beta * (1 - af))
+    cv = gamma / (beta * h)
+    mfac = 1.0 / (1.0 + integrator.alpha) if integrator.hht else 1.0
     z = st.z
 
     def update(q1):
@@ -137,64 +190,90 @@ def step(system: System, integrator, st: StepState, h, opts: StepOptions):
         q1, mu = x[:nq], x[nq:]
         a1, v1, qdd1 = update(q1)
         phi, vjp = jax.vjp(lambda qq: constraints(system, qq, t1), q1)
+        Q = generalized_forces(system, q1, v1, t1, z)
         if integrator.hht:
             al = integrator.alpha
             qm = (1 + al) * q1 - al * st.q
-            Q = generalized_forces(system, q1, v1, t1, z)
             # (1/(1+α)) M q̈ + (Φ_qᵀλ − Q)_{n+1} − (α/(1+α)) g_n = 0, scaled by 1/β'
             Rq = (mass_action(system, qm, qdd1) / (1 + al) - Q - al / (1 + al) * st.g) / bp + vjp(mu)[0]
         else:
-            Q = generalized_forces(system, q1, v1, t1, z)
             Rq = (mass_action(system, q1, qdd1) - Q) / bp + vjp(mu)[0]
         return jnp.concatenate([Rq, phi])
+
+    def fresh_inverse(x):
+        q1 = x[:nq]
+        _, v1, _ = update(q1)
+        # The Newton matrix only steers the iteration: no derivative through it (forward-mode
+        # sensitivities converge with the iteration itself).
+        J = iteration_matrix(system, jax.lax.stop_gradient(q1), jax.lax.stop_gradient(v1), t1, z, jax.lax.stop_gradient(bp), jax.lax.stop_gradient(cv), mfac)
+        return jax.lax.stop_gradient(jnp.linalg.inv(J))
 
     # Predictor.
     a_star = (st.qdd - am * a_n) / (1 - am)
     q_star = st.q + h * st.v + h * h * ((0.5 - beta) * a_n + beta * a_star)
     x0 = jnp.concatenate([q_star, st.lam / bp])
     w = _weights(system, st.q, opts)
-
     n = x0.shape[0]
-    nc = n - nq
+    reuse = opts.jacobian_reuse
+    r_h = opts.jacobian_h_ratio
 
-    def jac_lu(x):
-        # Only the nq coordinate columns by forward mode: ∂R/∂μ = [Φ_qᵀ; 0] is the transpose of
-        # the constraint block ∂R_Φ/∂q, so the iteration matrix costs nq JVPs, not nq + nc.
-        Jq = jax.jacfwd(lambda qq: residual(jnp.concatenate([qq, x[nq:]])))(x[:nq])
-        J = jnp.concatenate([Jq, jnp.concatenate([Jq[nq:].T, jnp.zeros((nc, nc))], 0)], 1)
-        return lu_factor(J)
+    if reuse:
+        ratio = h / jnp.where(st.jac_h > 0, st.jac_h, jnp.inf)
+        stale = ~st.jac_ok | (ratio > r_h) | (ratio < 1.0 / r_h) | (st.jac_hold > 0)
+        build = any_lane(stale)
+        Jinv = rarely(build, fresh_inverse, st.Jinv, x0)
+        jac_h = jnp.where(build, h, st.jac_h)
+        fresh = build
+    else:
+        Jinv, jac_h, fresh = fresh_inverse(x0), h, jnp.array(True)
 
     def cond(c):
-        x, lu, k, err, prev, conv, bad, r, need = c
+        x, k, err, phi_prev, conv, bad, r = c
         return (~conv) & (~bad) & (k < opts.max_newton)
 
     def body(c):
-        # Modified Newton: the iteration matrix is (re)built only on the first iteration and
-        # when the contraction is slow; a single jacfwd site keeps compile time down.
-        x, lu, k, err, prev, conv, bad, _, need = c
-        if opts.jacobian_refresh:
-            lu = jax.lax.cond(need, jac_lu, lambda _: lu, x)
+        x, k, err, phi_prev, _, _, _ = c
         r = residual(x)
-        dx = -lu_solve(lu, r)
+        dx = -(Jinv @ r)
         x = x + dx
         e = _wrms(dx[:nq], w)
-        phi_ok = jnp.max(jnp.abs(r[nq:])) < opts.phi_tol
-        conv = (e < opts.newton_tol) & phi_ok | (e < 1e-3 * opts.newton_tol)
-        bad = ~jnp.isfinite(e) | ((k > 2) & (e > 2.0 * prev) & (prev > 0))
-        need = (k > 0) & (e > 0.3 * err) & ~conv
-        return x, lu, k + 1, e, err, conv, bad, r, need
+        phi_max = jnp.max(jnp.abs(r[nq:]))
+        # Converged when the correction is small, or (modified Newton, linear contraction
+        # ρ = e_k/e_{k−1}) when the remaining error ρ/(1−ρ)·e_k and the constraint residual
+        # after this update, ≈ max(ρ, ρ_Φ)·|Φ(x_k)|, are below the tolerances (Hairer & Wanner
+        # IV.8), ρ_Φ = |Φ(x_k)|/|Φ(x_{k−1})| being the contraction of the constraint residual.
+        rho = jnp.where(k > 0, e / jnp.maximum(err, 1e-300), 1.0)
+        rho_phi = jnp.where(k > 0, phi_max / jnp.maximum(phi_prev, 1e-300), 1.0)
+        conv_rate = (k > 0) & (rho < 0.9) & (e * rho / (1.0 - rho) < 1e-2 * opts.newton_tol) & (jnp.maximum(rho, rho_phi) * phi_max < opts.phi_tol)
+        # A single small correction proves convergence only with a fresh matrix (quadratic
+        # convergence); with a reused one the error left after it is ρ·e, unknown until k = 1.
+        conv = ((e < opts.newton_tol) & (phi_max < opts.phi_tol) | (e < 1e-3 * opts.newton_tol)) & fresh | conv_rate
+        # A reused matrix that contracts slowly is given up at once (the driver retries the
+        # step with a fresh one); with a fresh matrix only divergence is a failure.
+        bad = ~jnp.isfinite(e) | jnp.where(fresh, (k > 2) & (rho > 2.0), (k > 0) & (rho > 0.5) & (e > opts.newton_tol))
+        return x, k + 1, e, phi_max, conv, bad, r
 
-    if opts.jacobian_refresh:
-        lu_init = (jnp.zeros((n, n)), jnp.zeros(n, jnp.int32))
-    else:
-        lu_init = jac_lu(x0)
-    init = (x0, lu_init, jnp.array(0), jnp.array(jnp.inf), jnp.array(0.0), jnp.array(False), jnp.array(False), jnp.zeros(n), jnp.array(opts.jacobian_refresh))
-    x, _, iters, _, _, conv, bad, r, _ = jax.lax.while_loop(cond, body, init)
+    init = (x0, jnp.array(0), jnp.array(jnp.inf), jnp.array(jnp.inf), jnp.array(False), jnp.array(False), jnp.zeros(n))
+    x, iters, e_last, _, conv, bad, r = jax.lax.while_loop(cond, body, init)
     q1 = x[:nq]
     a1, v1, qdd1 = update(q1)
     lam1 = x[nq:] * bp
     finite = jnp.all(jnp.isfinite(q1)) & jnp.all(jnp.isfinite(v1))
-    conv = conv & finite & ~bad
+    # The rate test estimates |Φ| after the last update; check it (a cheap evaluation) so every
+    # accepted state meets the constraints to 5·phi_tol whatever the estimate said.
+    phi_ok = jnp.max(jnp.abs(constraints(system, q1, t1))) < 5.0 * opts.phi_tol
+    conv = conv & finite & ~bad & phi_ok
+    # Reuse the matrix next step unless this one needed many iterations or failed; a failure
+    # with a reused matrix is retried at the same h with a fresh one (``stale_fail``).
+    jac_ok = conv & (iters <= 3) & jnp.all(jnp.isfinite(Jinv))
+    stale_fail = ~conv & ~fresh
+    # Back off from reuse where it keeps failing (stiff, fast-rotating elements): hold fresh
+    # matrices for 1, 3, 7, ... 63 steps after each failure; halve the hold after a success.
+    if reuse:
+        jac_pen = jnp.where(stale_fail, jnp.minimum(2 * st.jac_pen + 1, 63), jnp.where(conv & ~fresh, st.jac_pen // 2, st.jac_pen))
+        jac_hold = jnp.where(stale_fail, jac_pen, jnp.maximum(st.jac_hold - conv.astype(st.jac_hold.dtype), 0))
+    else:
+        jac_pen, jac_hold = st.jac_pen, st.jac_hold
     if integrator.hht:
         e_vec = h * h * integrator.error_coefficient * (qdd1 - st.qdd)
     else:
@@ -207,7 +286,7 @@ def step(system: System, integrator, st: StepState, h, opts: StepOptions):
         g1 = vjp1(lam1)[0] - generalized_forces(system, q1, v1, t1, z)
     else:
         g1 = st.g
-    new = StepState(t1, q1, v1, a1, qdd1, lam1, h, wnew, pw1, z, g1)
+    new = StepState(t1, q1, v1, a1, qdd1, lam1, h, wnew, pw1, z, g1, Jinv, jac_h, jac_ok, jac_hold, jac_pen)
     worst = jnp.argmax(jnp.abs(jnp.where(jnp.isfinite(r), r, jnp.inf)))
     worst = jnp.where(conv, jnp.argmax(jnp.abs(e_vec / w)), worst)
-    return new, err, iters, conv, worst
+    return new, err, iters, conv, worst, stale_fail

@@ -86,3 +86,21 @@ def frame_from_axis(axis, xhint=None) -> np.ndarray:
     x = x / np.linalg.norm(x)
     y = np.cross(z, x)
     return np.column_stack([x, y, z])
+
+
+# Batched 3×3 / 3×4 products written as broadcast-and-sum: XLA-CPU fuses them into one loop,
+# whereas einsum/matmul with a batch dimension becomes a dot kernel per call (several times
+# slower at these sizes inside the Newton loop; bench/README.md).
+def mv(A, x):
+    """A x over leading batch axes: (..., m, n), (..., n) → (..., m)."""
+    return jnp.sum(A * x[..., None, :], -1)
+
+
+def mtv(A, x):
+    """Aᵀ x over leading batch axes: (..., m, n), (..., m) → (..., n)."""
+    return jnp.sum(A * x[..., :, None], -2)
+
+
+def mm(A, B):
+    """A B over leading batch axes: (..., m, k), (..., k, n) → (..., m, n)."""
+    return jnp.sum(A[..., :, :, None] * B[..., None, :, :], -2)

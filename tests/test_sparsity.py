@@ -1,0 +1,81 @@
+"""The colour-compressed Newton matrix (assembly/sparsity.py, solvers/galpha.iteration_matrix)
+equals the dense forward-mode Jacobian of the same equations, element type by element type:
+a wrong structural pattern would silently drop couplings (slow Newton, never a wrong answer),
+so every pattern source is checked here to 1e-12 relative.
+"""
+
+import sys
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import proleg as pl
+from proleg.assembly.system import constraints, generalized_forces, mass_action
+from proleg.solvers.galpha import iteration_matrix
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "bench"))
+from common import build_chain  # noqa: E402
+
+
+def dense_matrix(system, q, v, z, bp, cv):
+    """[[M − (K + cv C)/β', Φ_qᵀ], [Φ_q, 0]] by dense jacfwd (the reference)."""
+    nq, nc = system.nq, system.nc
+
+    def R(dq):
+        Rq = mass_action(system, q, dq) - generalized_forces(system, q + dq, v + cv * dq, 0.3, z) / bp
+        return jnp.concatenate([Rq, constraints(system, q + dq, 0.3)])
+
+    J = jax.jacfwd(R)(jnp.zeros(nq))
+    return np.block([[np.asarray(J[:nq]), np.asarray(J[nq:]).T], [np.asarray(J[nq:]), np.zeros((nc, nc))]])
+
+
+def check(system, seed=0):
+    rng = np.random.default_rng(seed)
+    q = np.asarray(system.params["q_init"]) + 1e-3 * rng.standard_normal(system.nq)
+    v = np.asarray(system.params["v_init"]) + 0.3 * rng.standard_normal(system.nq)
+    from proleg.analyses.simulate import initial_z
+
+    z = initial_z(system)
+    q, v = jnp.asarray(q), jnp.asarray(v)
+    J = np.asarray(iteration_matrix(system, q, v, 0.3, z, 1e4, 50.0, 1.0))
+    Jd = dense_matrix(system, q, v, z, 1e4, 50.0)
+    scale = np.abs(Jd).max()
+    np.testing.assert_allclose(J, Jd, rtol=0, atol=1e-12 * scale)
+    return system.topo.coloring
+
+
+def test_chain_needs_two_part_colours_whatever_its_length():
+    for n in (3, 8):
+        col = check(pl.assemble(build_chain(n, spring=50.0)))
+        assert col.ncolors == 14 and not col.dense
+
+
+def test_bushings_springs_and_rotational_elements():
+    col = check(pl.assemble(build_chain(4, joints="bushing", spring=80.0)))
+    assert not col.dense
+
+
+def test_hyq_leg_with_contact_actuators_and_controllers():
+    from proleg.robots import hyq_leg
+
+    for joints in ("rigid", "bushings4"):
+        check(pl.assemble(hyq_leg(joints)))
+
+
+def test_flexible_body_columns_travel_with_their_part():
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from test_flexible_body import pendulum, reduced_strip
+
+    beam, rb, root, tip = reduced_strip(n_el=4, n_modes=2)
+    check(pendulum(rb, root, tip))
+
+
+def test_state_dependent_force_makes_the_pattern_dense():
+    model = build_chain(3)
+    model.add_force(pl.Force("pull", model.parts[0], lambda t, s: -10.0 * s.position("link3")))
+    system = pl.assemble(model)
+    col = check(system)
+    assert col.dense
