@@ -99,7 +99,7 @@ def advance(system, integrator, dopts: DriverOptions, st: StepState, h, out_time
             # The step sequence is not differentiated (derivatives are those of the discrete map).
             h_next = jax.lax.stop_gradient(jnp.clip(jnp.where(accept, h_acc, h_rej), 0.0, dopts.dt_max))
         # Accepted: the new state; rejected: the old one, but with the newest Newton matrix.
-        jac_fields = ("Jinv", "jac_h", "jac_ok", "jac_hold", "jac_pen")
+        jac_fields = ("Jfac", "jac_h", "jac_ok", "jac_hold", "jac_pen")
         st2 = StepState(*[
             getattr(new, f) if f in jac_fields else jnp.where(accept, getattr(new, f), getattr(st, f)) for f in StepState._fields
         ])

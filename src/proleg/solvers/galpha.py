@@ -11,7 +11,7 @@ K = ∂Q/∂q, C = ∂Q/∂v, by forward-mode autodiff compressed by the column 
 assembly/sparsity.py (one JVP per colour). The geometric terms ∂(M q̈)/∂q/β' and ∂(Φ_qᵀμ)/∂q
 are left out: they are O(h²) and only slow the contraction, never change the solution. By
 default the matrix is rebuilt every step; with ``StepOptions(jacobian_reuse=True)`` its
-inverse is kept across steps and rebuilt only when Newton contracts slowly, fails, or h has
+LU factors are kept across steps and rebuilt only when Newton contracts slowly, fails, or h has
 moved by more than a factor ``jacobian_h_ratio`` since it was built (bench/README.md).
 
 Choosing values
@@ -29,6 +29,7 @@ from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
+from jax.scipy.linalg import solve_triangular
 
 from ..assembly.system import System, constraints, generalized_forces, mass_action, power_terms
 from .batching import any_lane
@@ -46,7 +47,7 @@ class StepState(NamedTuple):
     pw: jnp.ndarray  # (2,) powers at t
     z: jnp.ndarray  # discrete (controller) state, held between samples
     g: jnp.ndarray  # HHT: (Φ_qᵀλ − Q) at t_n
-    Jinv: jnp.ndarray  # (nq + nc, nq + nc) inverse Newton matrix kept across steps
+    Jfac: tuple  # LU factors of the Newton matrix and the row permutation ((n, n), (n,) int)
     jac_h: jnp.ndarray  # step it was built for (0: none yet)
     jac_ok: jnp.ndarray  # bool: fit for reuse on the next step
     jac_hold: jnp.ndarray  # int: steps left that take a fresh matrix (after a failed reuse)
@@ -129,6 +130,28 @@ def _wrms(x, w):
     return jnp.sqrt(jnp.mean((x / w) ** 2))
 
 
+def lu_factors(J):
+    """(LU, permutation) of a square J with partial pivoting, without XLA's sequential
+    pivots-to-permutation loop (one loop iteration per row, ~1 µs each on CPU): J is factored
+    with the row numbers appended as an extra column, which LAPACK carries through the row
+    swaps and forward elimination as L⁻¹·P·(0..n−1); multiplying by L recovers P·(0..n−1)."""
+    n = J.shape[0]
+    rows = jnp.arange(n, dtype=J.dtype)
+    lu_aug, _, _ = jax.lax.linalg.lu(jnp.concatenate([J, rows[:, None]], 1))
+    lu = lu_aug[:, :n]
+    L = jnp.tril(lu, -1) + jnp.eye(n, dtype=J.dtype)
+    perm = jnp.round(L @ lu_aug[:, n]).astype(jnp.int32)
+    return lu, perm
+
+
+def lu_apply(fac, b):
+    """Solve with LU factors and the row permutation (jax.scipy's lu_solve would rebuild the
+    permutation from the pivots, a sequential loop, on every call)."""
+    lu, perm = fac
+    y = solve_triangular(lu, b[perm], lower=True, unit_diagonal=True)
+    return solve_triangular(lu, y, lower=False)
+
+
 def rarely(pred, fn, old, *args):
     """``fn(*args)`` if ``pred`` else ``old``, for work that is usually skipped.
 
@@ -200,13 +223,13 @@ def step(system: System, integrator, st: StepState, h, opts: StepOptions):
             Rq = (mass_action(system, q1, qdd1) - Q) / bp + vjp(mu)[0]
         return jnp.concatenate([Rq, phi])
 
-    def fresh_inverse(x):
+    def fresh_factors(x):
         q1 = x[:nq]
         _, v1, _ = update(q1)
         # The Newton matrix only steers the iteration: no derivative through it (forward-mode
         # sensitivities converge with the iteration itself).
         J = iteration_matrix(system, jax.lax.stop_gradient(q1), jax.lax.stop_gradient(v1), t1, z, jax.lax.stop_gradient(bp), jax.lax.stop_gradient(cv), mfac)
-        return jax.lax.stop_gradient(jnp.linalg.inv(J))
+        return lu_factors(jax.lax.stop_gradient(J))
 
     # Predictor.
     a_star = (st.qdd - am * a_n) / (1 - am)
@@ -221,11 +244,11 @@ def step(system: System, integrator, st: StepState, h, opts: StepOptions):
         ratio = h / jnp.where(st.jac_h > 0, st.jac_h, jnp.inf)
         stale = ~st.jac_ok | (ratio > r_h) | (ratio < 1.0 / r_h) | (st.jac_hold > 0)
         build = any_lane(stale)
-        Jinv = rarely(build, fresh_inverse, st.Jinv, x0)
+        Jfac = rarely(build, fresh_factors, st.Jfac, x0)
         jac_h = jnp.where(build, h, st.jac_h)
         fresh = build
     else:
-        Jinv, jac_h, fresh = fresh_inverse(x0), h, jnp.array(True)
+        Jfac, jac_h, fresh = fresh_factors(x0), h, jnp.array(True)
 
     def cond(c):
         x, k, err, phi_prev, conv, bad, r = c
@@ -234,7 +257,7 @@ def step(system: System, integrator, st: StepState, h, opts: StepOptions):
     def body(c):
         x, k, err, phi_prev, _, _, _ = c
         r = residual(x)
-        dx = -(Jinv @ r)
+        dx = -lu_apply(Jfac, r)
         x = x + dx
         e = _wrms(dx[:nq], w)
         phi_max = jnp.max(jnp.abs(r[nq:]))
@@ -265,7 +288,7 @@ def step(system: System, integrator, st: StepState, h, opts: StepOptions):
     conv = conv & finite & ~bad & phi_ok
     # Reuse the matrix next step unless this one needed many iterations or failed; a failure
     # with a reused matrix is retried at the same h with a fresh one (``stale_fail``).
-    jac_ok = conv & (iters <= 3) & jnp.all(jnp.isfinite(Jinv))
+    jac_ok = conv & (iters <= 3) & jnp.all(jnp.isfinite(Jfac[0]))
     stale_fail = ~conv & ~fresh
     # Back off from reuse where it keeps failing (stiff, fast-rotating elements): hold fresh
     # matrices for 1, 3, 7, ... 63 steps after each failure; halve the hold after a success.
@@ -286,7 +309,7 @@ def step(system: System, integrator, st: StepState, h, opts: StepOptions):
         g1 = vjp1(lam1)[0] - generalized_forces(system, q1, v1, t1, z)
     else:
         g1 = st.g
-    new = StepState(t1, q1, v1, a1, qdd1, lam1, h, wnew, pw1, z, g1, Jinv, jac_h, jac_ok, jac_hold, jac_pen)
+    new = StepState(t1, q1, v1, a1, qdd1, lam1, h, wnew, pw1, z, g1, Jfac, jac_h, jac_ok, jac_hold, jac_pen)
     worst = jnp.argmax(jnp.abs(jnp.where(jnp.isfinite(r), r, jnp.inf)))
     worst = jnp.where(conv, jnp.argmax(jnp.abs(e_vec / w)), worst)
     return new, err, iters, conv, worst, stale_fail
