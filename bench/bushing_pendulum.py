@@ -9,6 +9,7 @@ Cases (``--cases`` picks some; default all):
 ``chain7``     7-part model for the target "under 100 µs per step": a chain of seven 0.15 m /
                0.1 kg rods on Revolute joints.
 ``bushing7``   the same 7-link chain with the bushing hinges above.
+``chain7_reuse`` ``chain7`` with ``jacobian_reuse=True`` (Newton matrix kept across steps).
 
 All start straight, 30° below the horizontal, at rest; ``--t-end`` seconds (default 10) with
 the default integrator (generalized-α, ρ∞ = 0.8, rtol 1e-6), outputs every 10 ms.
@@ -26,8 +27,10 @@ CASES = {
     "revolute2": ("double pendulum, revolute hinges", dict(n=2, length=0.2, mass=1.0, joints="revolute")),
     "chain7": ("7-link chain, revolute (7-part target)", dict(n=7, joints="revolute")),
     "bushing7": ("7-link chain, bushing hinges", dict(n=7, joints="bushing")),
+    "chain7_reuse": ("7-link chain, revolute, Jacobian reuse", dict(n=7, joints="revolute")),
 }
-COLUMNS = ["case", "parts", "nq", "nc", "assemble [s]", "compile [s]", "xla [s]", "cache hits", "wall [s]", "steps", "rejected", "newton", "us/step", "cpu us/step", "us/newton"]
+SIMULATE_KW = {"chain7_reuse": {"jacobian_reuse": True}}
+COLUMNS = ["case", "parts", "nq", "nc", "assemble [s]", "compile [s]", "xla [s]", "cache hits", "wall [s]", "steps", "rejected", "newton", "jacobians", "us/step", "cpu us/step", "us/newton"]
 TARGET_US_PER_STEP = 100.0
 
 
@@ -47,7 +50,7 @@ def main(argv=None):
         system, t_asm = timed(pl.assemble, build_chain(**kw))
         row = {"case": label, "parts": kw["n"], "assemble [s]": t_asm}
         try:
-            row.update(bench_simulate(system, args.t_end))
+            row.update(bench_simulate(system, args.t_end, **SIMULATE_KW.get(key, {})))
         except Exception as exc:
             row["status"] = f"{type(exc).__name__}: {exc}"
         rows.append(row)

@@ -18,7 +18,7 @@ import time
 
 from common import add_output_args, bench_simulate, build_chain, emit, log, timed
 
-COLUMNS = ["N", "nq", "nc", "assemble [s]", "compile [s]", "xla [s]", "cache hits", "wall [s]", "steps", "rejected", "newton", "us/step", "cpu us/step", "us/newton"]
+COLUMNS = ["N", "nq", "nc", "assemble [s]", "compile [s]", "xla [s]", "cache hits", "wall [s]", "steps", "rejected", "newton", "jacobians", "us/step", "cpu us/step", "us/newton"]
 
 
 def profile_run(system, t_end, top: int = 20):

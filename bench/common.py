@@ -228,6 +228,7 @@ def bench_simulate(system, t_end: float, dt_output: float = 1e-2, profile_chunks
         "steps": s["steps"],
         "rejected": s["rejected"],
         "newton": s["newton_iterations"],
+        "jacobians": s.get("jacobians", 0),
         "us/step": 1e6 * t_second / max(s["steps"], 1),
         "us/newton": 1e6 * t_second / max(s["newton_iterations"], 1),
         "cpu us/step": 1e6 * c_second / max(s["steps"], 1),

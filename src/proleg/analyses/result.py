@@ -96,6 +96,7 @@ class Result:
             "steps": int(stats[0]) if stats is not None else 0,
             "rejected": int(stats[1]) if stats is not None else 0,
             "newton_iterations": int(stats[2]) if stats is not None else 0,
+            "jacobians": int(stats[3]) if stats is not None and len(stats) > 3 else 0,
         }
         self.status = status
         self.message = message

@@ -207,7 +207,7 @@ def simulate(
     nchunks = int(math.ceil(len(out_t) / K))
     rec = {"q": [q[None]], "v": [v[None]], "w": [jnp.zeros((1, 2))], "z": [z0[None]]}
     rec_t = [np.array([t0])]
-    stats = np.zeros(3, int)
+    stats = np.zeros(4, int)
     status, fail_t, worst = Status.SUCCESS, None, None
     show = progress if progress is not None else (sys.stderr.isatty() and nchunks > 1 and not traced)
     bar = None
@@ -223,14 +223,14 @@ def simulate(
             tc = out_t[c * K : (c + 1) * K]
             n_valid = len(tc)
             tpad = np.concatenate([tc, np.full(K - n_valid, tc[-1])])
-            st, h, k, bufs, (ns, nr, nn), stat, ft, wr = advance(system, integrator, dopts, st, h, jnp.asarray(tpad), n_valid)
+            st, h, k, bufs, (ns, nr, nn, nj), stat, ft, wr = advance(system, integrator, dopts, st, h, jnp.asarray(tpad), n_valid)
             if traced:
                 rec_t.append(tc)
                 for key, b in zip(("q", "v", "w", "z"), bufs):
                     rec[key].append(b[:n_valid])
                 continue
             k = int(k)
-            stats += np.array([int(ns), int(nr), int(nn)])
+            stats += np.array([int(ns), int(nr), int(nn), int(nj)])
             rec_t.append(tc[:k])
             for key, b in zip(("q", "v", "w", "z"), bufs):
                 rec[key].append(b[:k])

@@ -78,12 +78,12 @@ def advance(system, integrator, dopts: DriverOptions, st: StepState, h, out_time
         return te
 
     def attempt(te, c):
-        st, h, (ns, nr, nn), status, ft, worst, rejected = c
+        st, h, (ns, nr, nn, nj), status, ft, worst, rejected = c
         rem = next_event(st.t, te) - st.t
         h_des = jnp.asarray(dopts.fixed_step) if fixed else h
         h_take = jnp.where(h_des >= rem * (1 - 1e-9), rem, jnp.where(2 * h_des > rem, 0.5 * rem, h_des))
         clipped = h_take < h_des
-        new, err, iters, conv, wrow, stale_fail = step(system, integrator, st, h_take, dopts.step)
+        new, err, iters, conv, wrow, stale_fail, built = step(system, integrator, st, h_take, dopts.step)
         if fixed:
             accept = conv
             h_next = h
@@ -114,7 +114,7 @@ def advance(system, integrator, dopts: DriverOptions, st: StepState, h, out_time
         new_status = jnp.where(ns + nr >= dopts.max_steps, int(Status.MAX_STEPS), new_status)
         ft = jnp.where(too_small, st.t + h_take, ft)
         worst = jnp.where(too_small, wrow, worst)
-        stats = (ns + accept.astype(ns.dtype), nr + (~accept).astype(nr.dtype), nn + iters)
+        stats = (ns + accept.astype(ns.dtype), nr + (~accept).astype(nr.dtype), nn + iters, nj + built.astype(nj.dtype))
         return st2, jnp.maximum(h_next, dopts.dt_min * 0.5), stats, new_status, ft, worst, ~accept
 
     def reach(carry, xs):
@@ -131,7 +131,7 @@ def advance(system, integrator, dopts: DriverOptions, st: StepState, h, out_time
         return (c, k), (st.q, st.v, st.w, st.z)
 
     z0 = jnp.array(0)
-    init = (st, jnp.asarray(h, jnp.float64), (z0, z0, z0), jnp.array(0), st.t * 0.0, z0, jnp.array(False))
+    init = (st, jnp.asarray(h, jnp.float64), (z0, z0, z0, z0), jnp.array(0), st.t * 0.0, z0, jnp.array(False))
     valid = jnp.arange(K) < n_valid
     ((st, h, stats, status, ft, worst, _), k), bufs = jax.lax.scan(reach, (init, z0), (out_times, valid))
     return st, h, k, bufs, stats, status, ft, worst

@@ -117,7 +117,8 @@ class StepOptions:
     # step, which over 1e5 fixed steps shows in conservation checks at the 1e-6 level (a fresh
     # matrix per step keeps them at 1e-9). Off by default.
     jacobian_reuse: bool = False
-    jacobian_h_ratio: float = 1.6  # rebuild when h / h_built leaves [1/r, r]
+    jacobian_h_ratio: float = 3.0  # rebuild when h / h_built leaves [1/r, r]
+    reuse_max_iterations: int = 4  # a step that needed more rebuilds the matrix for the next
 
 
 def _weights(system: System, q, opts: StepOptions):
@@ -188,7 +189,7 @@ def step(system: System, integrator, st: StepState, h, opts: StepOptions):
     """One step of size h from ``st``.
 
     Returns (new state, error norm, iterations, converged, worst row, failed with a reused
-    Newton matrix: retry at the same h).
+    Newton matrix: retry at the same h, a Newton matrix was built).
     """
     nq = system.topo.nq
     am, af, gamma, beta = integrator.coefficients
@@ -288,7 +289,7 @@ def step(system: System, integrator, st: StepState, h, opts: StepOptions):
     conv = conv & finite & ~bad & phi_ok
     # Reuse the matrix next step unless this one needed many iterations or failed; a failure
     # with a reused matrix is retried at the same h with a fresh one (``stale_fail``).
-    jac_ok = conv & (iters <= 3) & jnp.all(jnp.isfinite(Jfac[0]))
+    jac_ok = conv & (iters <= opts.reuse_max_iterations) & jnp.all(jnp.isfinite(Jfac[0]))
     stale_fail = ~conv & ~fresh
     # Back off from reuse where it keeps failing (stiff, fast-rotating elements): hold fresh
     # matrices for 1, 3, 7, ... 63 steps after each failure; halve the hold after a success.
@@ -312,4 +313,4 @@ def step(system: System, integrator, st: StepState, h, opts: StepOptions):
     new = StepState(t1, q1, v1, a1, qdd1, lam1, h, wnew, pw1, z, g1, Jfac, jac_h, jac_ok, jac_hold, jac_pen)
     worst = jnp.argmax(jnp.abs(jnp.where(jnp.isfinite(r), r, jnp.inf)))
     worst = jnp.where(conv, jnp.argmax(jnp.abs(e_vec / w)), worst)
-    return new, err, iters, conv, worst, stale_fail
+    return new, err, iters, conv, worst, stale_fail, fresh
