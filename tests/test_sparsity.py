@@ -20,15 +20,19 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "bench"))
 from common import build_chain  # noqa: E402
 
 
-def dense_matrix(system, q, v, z, bp, cv):
-    """[[M − (K + cv C)/β', Φ_qᵀ], [Φ_q, 0]] by dense jacfwd (the reference)."""
-    nq, nc = system.nq, system.nc
-
+@jax.jit
+def _dense_jacobian(system, q, v, z, bp, cv):
     def R(dq):
         Rq = mass_action(system, q, dq) - generalized_forces(system, q + dq, v + cv * dq, 0.3, z) / bp
         return jnp.concatenate([Rq, constraints(system, q + dq, 0.3)])
 
-    J = jax.jacfwd(R)(jnp.zeros(nq))
+    return jax.jacfwd(R)(jnp.zeros(system.nq))
+
+
+def dense_matrix(system, q, v, z, bp, cv):
+    """[[M − (K + cv C)/β', Φ_qᵀ], [Φ_q, 0]] by dense jacfwd (the reference), compiled once."""
+    nq, nc = system.nq, system.nc
+    J = _dense_jacobian(system, q, v, z, bp, cv)
     return np.block([[np.asarray(J[:nq]), np.asarray(J[nq:]).T], [np.asarray(J[nq:]), np.zeros((nc, nc))]])
 
 
@@ -40,7 +44,7 @@ def check(system, seed=0):
 
     z = initial_z(system)
     q, v = jnp.asarray(q), jnp.asarray(v)
-    J = np.asarray(iteration_matrix(system, q, v, 0.3, z, 1e4, 50.0, 1.0))
+    J = np.asarray(jax.jit(iteration_matrix)(system, q, v, 0.3, z, 1e4, 50.0, 1.0))
     Jd = dense_matrix(system, q, v, z, 1e4, 50.0)
     scale = np.abs(Jd).max()
     np.testing.assert_allclose(J, Jd, rtol=0, atol=1e-12 * scale)
