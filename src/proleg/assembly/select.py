@@ -36,11 +36,6 @@ class Select:
     def __matmul__(self, x):
         return x[self.idx]
 
-    def dense(self) -> np.ndarray:
-        out = np.zeros(self.shape)
-        out[np.arange(self.idx.size), self.idx] = 1.0
-        return out
-
     @property
     def T(self):
         return _Scatter(self)
