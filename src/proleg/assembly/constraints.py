@@ -23,23 +23,23 @@ from .select import Select
 
 @dataclass(eq=False)
 class ConstraintTopology:
-    """Static description of the kept constraint rows (numpy arrays, hashed by identity)."""
+    """Static description of the kept constraint rows (selections and numpy arrays, hashed by identity)."""
 
     sph_i: Select  # (n, nm) selection of marker rows
-    sph_j: np.ndarray
+    sph_j: Select
     sph_k: np.ndarray  # (n, 3) one-hot component
-    d1_i: np.ndarray
+    d1_i: Select
     d1_a: np.ndarray  # (n, 3) axis of I
-    d1_j: np.ndarray
+    d1_j: Select
     d1_b: np.ndarray  # (n, 3) axis of J
-    d2_i: np.ndarray
+    d2_i: Select
     d2_a: np.ndarray
-    d2_j: np.ndarray
-    sc_i: np.ndarray
-    sc_j: np.ndarray
+    d2_j: Select
+    sc_i: Select
+    sc_j: Select
     sc_param: np.ndarray  # (n,) int, index into params["screw_lead"]
-    drv_i: np.ndarray
-    drv_j: np.ndarray
+    drv_i: Select
+    drv_j: Select
     drv_rot: np.ndarray  # (n,) bool: rotational (True) or translational driver
     drv_fn: tuple = ()  # callables f(t) per driver row
     nbody: int = 0

@@ -1,6 +1,6 @@
 """Force-element groups: each kind of element is evaluated vectorised over its instances.
 
-A group turns model elements into parameter arrays (``params``) and static one-hot marker
+A group turns model elements into parameter arrays (``params``) and static marker
 selections, and provides pure functions of the marker kinematics:
 
 - ``loads`` → per-marker force and torque accumulations (ground components),
@@ -16,8 +16,8 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from .constraints import _oh, joint_angle
 from ..spatial.rotation import mv
+from .constraints import _oh, joint_angle
 
 
 class AbstractGroup:

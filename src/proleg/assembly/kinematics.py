@@ -49,18 +49,18 @@ def body_kin(nbody: int, q, v=None) -> BodyKin:
     return BodyKin(r, p, A, rd, w)
 
 
-def marker_kin(onehot, marker_s, marker_C, bk: BodyKin, flex=None) -> MarkerKin:
-    """Marker frames; ``onehot`` is the constant (nm, nb+1) marker→body selection (select.Select).
+def marker_kin(body_of, marker_s, marker_C, bk: BodyKin, flex=None) -> MarkerKin:
+    """Marker frames; ``body_of`` is the constant (nm, nb+1) marker→body selection (select.Select).
 
     ``flex = (eta, etad, phi, psi)`` adds the deformation of markers on flexible bodies:
     s' = s'_0 + Φ η, C = (I + (Ψ η)~) C_0, with the deformation velocities in v and ω.
     """
-    Ab = onehot @ bk.A
-    w = onehot @ bk.w
+    Ab = body_of @ bk.A
+    w = body_of @ bk.w
     if flex is None:
         s = mv(Ab, marker_s)
         R = mm(Ab, marker_C)
-        v = onehot @ bk.rd + jnp.cross(w, s)
+        v = body_of @ bk.rd + jnp.cross(w, s)
     else:
         eta, etad, phi, psi = flex
         from ..spatial.rotation import skew
@@ -68,11 +68,11 @@ def marker_kin(onehot, marker_s, marker_C, bk: BodyKin, flex=None) -> MarkerKin:
         s_loc = marker_s + jnp.einsum("mij,j->mi", phi, eta)
         s = jnp.einsum("mij,mj->mi", Ab, s_loc)
         R = Ab @ ((jnp.eye(3) + skew(jnp.einsum("mij,j->mi", psi, eta))) @ marker_C)
-        v = onehot @ bk.rd + jnp.cross(w, s)
+        v = body_of @ bk.rd + jnp.cross(w, s)
         if etad is not None:
             v = v + jnp.einsum("mij,mj->mi", Ab, jnp.einsum("mij,j->mi", phi, etad))
             w = w + jnp.einsum("mij,mj->mi", Ab, jnp.einsum("mij,j->mi", psi, etad))
-    r = onehot @ bk.r + s
+    r = body_of @ bk.r + s
     return MarkerKin(r, R, v, w, Ab, s)
 
 

@@ -47,10 +47,5 @@ class _Scatter:
     def __init__(self, s: Select):
         self.s = s
 
-    @property
-    def shape(self):
-        return self.s.shape[::-1]
-
     def __matmul__(self, y):
         return jax.ops.segment_sum(y, self.s.idx, num_segments=self.s.n, indices_are_sorted=False)
-

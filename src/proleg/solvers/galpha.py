@@ -228,9 +228,9 @@ def step(system: System, integrator, st: StepState, h, opts: StepOptions):
         q1 = x[:nq]
         _, v1, _ = update(q1)
         # The Newton matrix only steers the iteration: no derivative through it (forward-mode
-        # sensitivities converge with the iteration itself).
-        J = iteration_matrix(system, jax.lax.stop_gradient(q1), jax.lax.stop_gradient(v1), t1, z, jax.lax.stop_gradient(bp), jax.lax.stop_gradient(cv), mfac)
-        return lu_factors(jax.lax.stop_gradient(J))
+        # sensitivities converge with the iteration itself), so no tangents are carried into it.
+        args = jax.lax.stop_gradient((system, q1, v1, t1, z, bp, cv))
+        return lu_factors(iteration_matrix(*args, mfac))
 
     # Predictor.
     a_star = (st.qdd - am * a_n) / (1 - am)
