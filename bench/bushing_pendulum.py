@@ -7,9 +7,15 @@ Cases (``--cases`` picks some; default all):
                damping 1e3 N s/m (translations), 10 N m s/rad (tilts), 0 (hinge axis).
 ``revolute2``  the same double pendulum with Revolute joints (the rigid reference).
 ``chain7``     7-part model for the target "under 100 µs per step": a chain of seven 0.15 m /
-               0.1 kg rods on Revolute joints.
+               0.1 kg rods on Revolute joints. A planar mechanism, so ``simulate`` runs it in
+               planar coordinates (3 per part, assembly/coordinates.py; Newton matrix n = 35).
+``chain7_absolute`` ``chain7`` forced into absolute coordinates (7 per part, n = 91), the
+               formulation every non-planar model runs in.
 ``bushing7``   the same 7-link chain with the bushing hinges above.
 ``chain7_reuse`` ``chain7`` with ``jacobian_reuse=True`` (Newton matrix kept across steps).
+
+``--cpus 1`` runs the process on one core (see bench/README.md: XLA-CPU hands small kernels to
+a thread pool, and for models this small the hand-offs cost more than they save).
 
 All start straight, 30° below the horizontal, at rest; ``--t-end`` seconds (default 10) with
 the default integrator (generalized-α, ρ∞ = 0.8, rtol 1e-6), outputs every 10 ms.
@@ -26,11 +32,12 @@ CASES = {
     "bushing2": ("double pendulum, bushing hinges", dict(n=2, length=0.2, mass=1.0, joints="bushing")),
     "revolute2": ("double pendulum, revolute hinges", dict(n=2, length=0.2, mass=1.0, joints="revolute")),
     "chain7": ("7-link chain, revolute (7-part target)", dict(n=7, joints="revolute")),
+    "chain7_absolute": ("7-link chain, revolute, absolute coordinates", dict(n=7, joints="revolute")),
     "bushing7": ("7-link chain, bushing hinges", dict(n=7, joints="bushing")),
     "chain7_reuse": ("7-link chain, revolute, Jacobian reuse", dict(n=7, joints="revolute")),
 }
-SIMULATE_KW = {"chain7_reuse": {"jacobian_reuse": True}}
-COLUMNS = ["case", "parts", "nq", "nc", "assemble [s]", "compile [s]", "xla [s]", "cache hits", "wall [s]", "steps", "rejected", "newton", "jacobians", "us/step", "cpu us/step", "us/newton"]
+SIMULATE_KW = {"chain7_reuse": {"jacobian_reuse": True}, "chain7_absolute": {"coordinates": "absolute"}}
+COLUMNS = ["case", "parts", "coordinates", "newton n", "assemble [s]", "compile [s]", "xla [s]", "cache hits", "wall [s]", "steps", "rejected", "newton", "jacobians", "us/step", "cpu us/step", "us/newton"]
 TARGET_US_PER_STEP = 100.0
 
 

@@ -29,6 +29,17 @@ def _early_blas_threads(argv=None):
                 os.environ[k] = argv[i + 1]
 
 
+def _early_cpus(argv=None):
+    """``--cpus N`` pins this process to its first N cores before JAX starts (XLA-CPU sizes its
+    thread pool from the affinity mask)."""
+    argv = sys.argv if argv is None else argv
+    if "--cpus" in argv:
+        i = argv.index("--cpus")
+        if i + 1 < len(argv) and hasattr(os, "sched_setaffinity"):
+            cores = sorted(os.sched_getaffinity(0))[: int(argv[i + 1])]
+            os.sched_setaffinity(0, cores)
+
+
 def _early_cache_setting(argv=None):
     """Cold compiles by default: proleg's persistent cache off (PROLEG_CACHE_DIR="") unless
     ``--warm-cache`` is given or PROLEG_CACHE_DIR is already set. Must run before ``import proleg``."""
@@ -38,6 +49,7 @@ def _early_cache_setting(argv=None):
 
 
 _early_blas_threads()
+_early_cpus()
 _early_cache_setting()
 
 import numpy as np  # noqa: E402
@@ -66,6 +78,7 @@ def machine() -> dict:
     info = {
         "cpu": cpu_model(),
         "cpu_count": os.cpu_count(),
+        "cores_used": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count(),
         "platform": platform.platform(),
         "python": platform.python_version(),
         # Other processes share this machine: a load above the core count inflates timings.
@@ -219,9 +232,15 @@ def bench_simulate(system, t_end: float, dt_output: float = 1e-2, profile_chunks
     else:
         res2, t_second, c_second = timed_cpu(pl.simulate, system, t_end=t_end, dt_output=dt_output, **kw)
     s = res2.stats
+    n_newton = int(system.nq + system.nc)
+    if getattr(res2, "coordinates", "absolute") == "planar":
+        basis = system.topo.planar[0]
+        n_newton = int(3 * system.topo.nbody + basis.P.shape[0])
     row = {
         "nq": int(system.nq),
         "nc": int(system.nc),
+        "coordinates": getattr(res2, "coordinates", "absolute"),
+        "newton n": n_newton,
         "first [s]": t_first,
         "compile [s]": t_first - t_second,
         "wall [s]": t_second,
@@ -384,6 +403,10 @@ def add_output_args(parser: argparse.ArgumentParser, name: str):
         "--blas-threads", type=int, default=None,
         help="set OPENBLAS_NUM_THREADS/OMP_NUM_THREADS (e.g. 1; default: the environment's)",
     )
+    parser.add_argument(
+        "--cpus", type=int, default=None,
+        help="run on this many cores (sched_setaffinity before JAX starts; XLA sizes its thread pool from it)",
+    )
     parser.add_argument("--json", action="store_true", help="print the table as ONE JSON object on stdout, nothing else")
     parser.add_argument(
         "--out", default=str(RESULTS_DIR / f"{name}.md"), help="write the table here (.md) and beside it (.json); '' to skip"
@@ -417,7 +440,7 @@ def emit(args, title: str, rows: list[dict], columns: list[str], meta: dict | No
         md = [
             f"# {title}",
             "",
-            f"{doc['date']} — {m.get('cpu')} ({m.get('cpu_count')} cores), {m.get('platform')}, "
+            f"{doc['date']} — {m.get('cpu')} ({m.get('cpu_count')} cores, {m.get('cores_used', m.get('cpu_count'))} used), {m.get('platform')}, "
             f"Python {m.get('python')}, JAX {m.get('jax')} ({m.get('jax_backend')}), proleg {m.get('proleg')} (git {m.get('git')}), "
             f"load average (1 min) at the end {m.get('loadavg_1min')}, env {m.get('env') or '{}'}",
             "",

@@ -92,6 +92,7 @@ class Result:
         self.system = system
         self.t = np.asarray(t)
         self.q, self.v, self.w, self.z = q, v, w, z
+        self.coordinates = "absolute"  # what the integrator ran on (simulate sets it)
         self.stats = {
             "steps": int(stats[0]) if stats is not None else 0,
             "rejected": int(stats[1]) if stats is not None else 0,

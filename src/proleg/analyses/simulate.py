@@ -11,6 +11,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..assembly.coordinates import coordinate_set
 from ..assembly.system import System, constraints, generalized_forces, power_terms
 from ..errors import ConvergenceError, SolverError, Status
 from ..solvers.driver import DriverOptions, advance, sample_controllers
@@ -136,6 +137,7 @@ def simulate(
     max_newton: int = 10,
     jacobian_refresh: bool = True,
     jacobian_reuse: bool = False,
+    coordinates: str = "auto",
     q0=None,
     v0=None,
     progress: bool | None = None,
@@ -160,6 +162,11 @@ def simulate(
         Under ``jax.vmap`` the rebuild decisions are batch-wide (solvers/batching.py).
     jacobian_refresh : accepted for compatibility; ``False`` forces a fresh matrix every step
         (the default already builds one per step)
+    coordinates : "auto" (default), "absolute" or "planar" — the coordinates the integrator
+        runs on (assembly/coordinates.py). "auto" runs a planar mechanism (one whose joints confine
+        every part to a plane: ``system.topo.planar`` says whether and why) on 3 coordinates per
+        part, an exact reduction, several times faster; results are always absolute.
+        ``result.coordinates`` says which ran.
 
     Works under ``jax.vmap`` and ``jax.jacfwd`` (the Python loop over chunks is static).
     """
@@ -194,10 +201,14 @@ def simulate(
     q, v, qdd, lam, z0, (pw, g0) = _consistent_state(system, q0, v0, t0, z0)
     q_ic, v_ic = q, v
     traced = _any_traced((system.params, q))
+    dyn = coordinate_set(system, q, coordinates)
+    if dyn.kind != "absolute":
+        q, v, qdd, lam, g0 = _reduced_start(dyn, q, v, qdd, lam, z0)
+    n_newton = dyn.nq + dyn.nc
     st = StepState(
         t=jnp.asarray(t0, jnp.float64), q=q, v=v, a=qdd, qdd=qdd, lam=lam,
         h_prev=jnp.asarray(1.0), w=jnp.zeros(2), pw=pw, z=z0, g=g0,
-        Jfac=(jnp.zeros((system.nq + system.nc,) * 2), jnp.arange(system.nq + system.nc, dtype=jnp.int32)), jac_h=jnp.asarray(0.0), jac_ok=jnp.asarray(False), jac_hold=jnp.asarray(0), jac_pen=jnp.asarray(0),
+        Jfac=(jnp.zeros((n_newton, n_newton)), jnp.arange(n_newton, dtype=jnp.int32)), jac_h=jnp.asarray(0.0), jac_ok=jnp.asarray(False), jac_hold=jnp.asarray(0), jac_pen=jnp.asarray(0),
     )
     h = jnp.asarray(dt_init if dt_init is not None else (fixed_step or min(1e-4, dopts.dt_max)), jnp.float64)
     st = st._replace(h_prev=h)
@@ -205,7 +216,7 @@ def simulate(
     out_t = times[1:] if times[0] == t0 else times
     K = int(min(chunk, max(1, len(out_t))))
     nchunks = int(math.ceil(len(out_t) / K))
-    rec = {"q": [q[None]], "v": [v[None]], "w": [jnp.zeros((1, 2))], "z": [z0[None]]}
+    rec = {"q": [q_ic[None]], "v": [v_ic[None]], "w": [jnp.zeros((1, 2))], "z": [z0[None]]}
     rec_t = [np.array([t0])]
     stats = np.zeros(4, int)
     status, fail_t, worst = Status.SUCCESS, None, None
@@ -223,7 +234,9 @@ def simulate(
             tc = out_t[c * K : (c + 1) * K]
             n_valid = len(tc)
             tpad = np.concatenate([tc, np.full(K - n_valid, tc[-1])])
-            st, h, k, bufs, (ns, nr, nn, nj), stat, ft, wr = advance(system, integrator, dopts, st, h, jnp.asarray(tpad), n_valid)
+            st, h, k, bufs, (ns, nr, nn, nj), stat, ft, wr = advance(dyn, integrator, dopts, st, h, jnp.asarray(tpad), n_valid)
+            if dyn.kind != "absolute":
+                bufs = (*_to_absolute(dyn, bufs[0], bufs[1]), *bufs[2:])
             if traced:
                 rec_t.append(tc)
                 for key, b in zip(("q", "v", "w", "z"), bufs):
@@ -237,7 +250,7 @@ def simulate(
             if bar is not None:
                 bar.update(task, completed=float(st.t) - t0, t=float(st.t))
             if int(stat) != 0:
-                status, fail_t, worst = Status(int(stat)), float(ft), int(wr)
+                status, fail_t, worst = Status(int(stat)), float(ft), dyn.absolute_row(int(wr))
                 break
             if on_chunk is not None:
                 partial_result = _build(system, rec_t, rec, stats, status, "running", integrator)
@@ -249,6 +262,7 @@ def simulate(
     if status != Status.SUCCESS:
         msg = _failure_message(system, status, fail_t, worst)
     result = _build(system, rec_t, rec, stats, status, msg, integrator)
+    result.coordinates = dyn.kind
     if not traced:
         result.initial_changes = _ic_report(system, q_ic, v_ic) if q0 is None and v0 is None else []
         moved = [c for c in result.initial_changes if max(c["moved [m]"], c["rotated [rad]"]) > 1e-6]
@@ -264,6 +278,18 @@ def simulate(
     if status != Status.SUCCESS and throw:
         raise SolverError(msg, result)
     return result
+
+
+@jax.jit
+def _reduced_start(dyn, q, v, qdd, lam, z0):
+    """The consistent absolute start (q, v, q̈, λ) in the coordinates ``dyn`` (x, ẋ, ẍ, λ_x) and
+    the HHT history term g = Φ_xᵀλ_x − Q = −M ẍ."""
+    x, xd = dyn.reduce(q, v)
+    xdd = dyn.reduce_acceleration(x, xd, qdd)
+    return x, xd, xdd, dyn.reduce_multipliers(lam), -dyn.mass_action(x, xdd)
+
+
+_to_absolute = jax.jit(jax.vmap(lambda dyn, x, xd: dyn.absolute(x, xd), in_axes=(None, 0, 0)))
 
 
 def _failure_message(system, status, t, worst):

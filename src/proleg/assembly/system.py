@@ -8,6 +8,8 @@ Python. The resulting :class:`System` is a pytree whose leaves are the numeric p
 
 from __future__ import annotations
 
+import dataclasses
+
 import warnings
 from dataclasses import dataclass, field
 
@@ -46,6 +48,7 @@ class Topology:
     flex: object = None  # FlexGroup or None
     n_eta: int = 0
     coloring: object = None  # sparsity.Coloring of the Newton matrix (set by assemble)
+    planar: tuple = (None, "not checked")  # (coordinates.PlanarBasis or None, why) (set by assemble)
 
     @property
     def nbody(self) -> int:
@@ -508,10 +511,18 @@ def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
             stacklevel=2,
         )
         kept_rows = [ordered[i] for i in keep]
-        topo.ct = build_constraint_topology(kept_rows, nm, nb, owners)
+        # A new Topology object, not a mutated one: jit caches key on the topology's identity,
+        # and executables compiled above for the full row set must not be reused for it.
+        topo = dataclasses.replace(topo, ct=build_constraint_topology(kept_rows, nm, nb, owners))
     topo.dropped = dropped
     topo.coloring = jacobian_coloring(topo)
     system = System({k: jnp.asarray(v, dtype=jnp.float64) for k, v in params.items()}, topo)
+    if topo.flex is None and any(getattr(j, "kind", "") in ("revolute", "planar") for j in topo.joints):
+        from .coordinates import planar_basis
+
+        topo.planar = planar_basis(system, q0)
+    else:
+        topo.planar = (None, "no revolute joints" if topo.flex is None else "flexible bodies")
     ctrl = next((g for g in extensions if g.kind == "controller"), None)
     if ctrl is not None and "controller_setpoint0" in params:
         from .extensions import joint_coordinate

@@ -70,6 +70,8 @@ def info(model: Path = typer.Argument(..., help="Model file (YAML)."), json_out:
         "dof_gruebler": dof["gruebler"],
         "dof_rank": dof["rank"],
         "redundant": [f"{j}: {lab}" for j, lab in dof["redundant"]],
+        # What simulate's coordinates="auto" runs on (assembly/coordinates.py).
+        "coordinates": "planar (3 per part)" if system.topo.planar[0] is not None else f"absolute (not planar: {system.topo.planar[1]})",
     }
     if json_out:
         typer.echo(json.dumps(data))

@@ -41,24 +41,23 @@ def sample_controllers(system, t, q, v, z, first=False):
 sample_controllers_first = jax.jit(partial(sample_controllers, first=True))
 
 
-def _sample_update(system, st: StepState):
+def _sample_update(dyn, st: StepState):
     """A controller sample. The held commands jump, so the accelerations are re-initialised from
     the KKT system at the new commands (like a restart), instead of being smeared over a step."""
     from .initial import kkt_accelerations
-    from ..assembly.system import power_terms
 
-    from ..assembly.system import constraints, generalized_forces
-
-    z = sample_controllers(system, st.t, st.q, st.v, st.z)
-    qdd, lam = kkt_accelerations(system, st.q, st.v, st.t, z)
-    _, vjp = jax.vjp(lambda qq: constraints(system, qq, st.t), st.q)
-    g = vjp(lam)[0] - generalized_forces(system, st.q, st.v, st.t, z)
-    return st._replace(z=z, qdd=qdd, a=qdd, lam=lam, g=g, pw=power_terms(system, st.q, st.v, st.t, z))
+    z = sample_controllers(dyn.system, st.t, *dyn.absolute(st.q, st.v), st.z)
+    qdd, lam = kkt_accelerations(dyn, st.q, st.v, st.t, z)
+    _, vjp = jax.vjp(lambda qq: dyn.constraints(qq, st.t), st.q)
+    g = vjp(lam)[0] - dyn.generalized_forces(st.q, st.v, st.t, z)
+    return st._replace(z=z, qdd=qdd, a=qdd, lam=lam, g=g, pw=dyn.power_terms(st.q, st.v, st.t, z))
 
 
 @partial(jax.jit, static_argnums=(1, 2))
-def advance(system, integrator, dopts: DriverOptions, st: StepState, h, out_times, n_valid):
+def advance(dyn, integrator, dopts: DriverOptions, st: StepState, h, out_times, n_valid):
     """Integrate from ``st`` through ``out_times[:n_valid]``; record q, v, w, z at each.
+
+    ``dyn``: the coordinate set the state is in (assembly/coordinates.py).
 
     A ``lax.scan`` over the output times with, inside, a ``lax.while_loop`` of step attempts
     up to the next output time: outputs are scan results (no dynamic buffer updates), and
@@ -83,7 +82,7 @@ def advance(system, integrator, dopts: DriverOptions, st: StepState, h, out_time
         h_des = jnp.asarray(dopts.fixed_step) if fixed else h
         h_take = jnp.where(h_des >= rem * (1 - 1e-9), rem, jnp.where(2 * h_des > rem, 0.5 * rem, h_des))
         clipped = h_take < h_des
-        new, err, iters, conv, wrow, stale_fail, built = step(system, integrator, st, h_take, dopts.step)
+        new, err, iters, conv, wrow, stale_fail, built = step(dyn, integrator, st, h_take, dopts.step)
         if fixed:
             accept = conv
             h_next = h
@@ -106,7 +105,7 @@ def advance(system, integrator, dopts: DriverOptions, st: StepState, h, out_time
         # Controller sample at its clock ticks.
         if Ts is not None:
             at_tick = accept & (jnp.abs(st2.t / Ts - jnp.round(st2.t / Ts)) < 1e-9 * jnp.maximum(1.0, st2.t / Ts))
-            st2 = jax.lax.cond(at_tick, lambda s: _sample_update(system, s), lambda s: s, st2)
+            st2 = jax.lax.cond(at_tick, lambda s: _sample_update(dyn, s), lambda s: s, st2)
         too_small = (~accept) & (h_next < dopts.dt_min) if not fixed else ~accept & ~stale_fail
         new_status = jnp.where(
             too_small, jnp.where(conv, int(Status.STEP_TOO_SMALL), int(Status.NEWTON_FAILED)), status

@@ -31,7 +31,7 @@ import jax
 import jax.numpy as jnp
 from jax.scipy.linalg import solve_triangular
 
-from ..assembly.system import System, constraints, generalized_forces, mass_action, power_terms
+from ..assembly.coordinates import Absolute
 from .batching import any_lane
 
 
@@ -121,10 +121,8 @@ class StepOptions:
     reuse_max_iterations: int = 4  # a step that needed more rebuilds the matrix for the next
 
 
-def _weights(system: System, q, opts: StepOptions):
-    nb = system.topo.nbody
-    atol = jnp.concatenate([jnp.tile(jnp.array([opts.atol] * 3 + [opts.atol_p] * 4), nb), jnp.full(system.topo.n_eta, opts.atol)])
-    return atol + opts.rtol * jnp.abs(q)
+def _weights(dyn, q, opts: StepOptions):
+    return dyn.weights(q, opts.rtol, opts.atol, opts.atol_p)
 
 
 def _wrms(x, w):
@@ -167,17 +165,19 @@ def rarely(pred, fn, old, *args):
     return jax.lax.while_loop(lambda c: c[0], body, (pred, old))[1]
 
 
-def iteration_matrix(system: System, q1, v1, t1, z, bp, cv, mfac):
-    """Newton matrix [[mfac·M − (K + cv·C)/β', Φ_qᵀ], [Φ_q, 0]] at (q1, v1), colour-compressed."""
-    topo = system.topo
-    nq, nc = topo.nq, topo.nc
-    col = topo.coloring
-    S = jnp.asarray(col.seed)
+def iteration_matrix(dyn, q1, v1, t1, z, bp, cv, mfac):
+    """Newton matrix [[mfac·M − (K + cv·C)/β', Φ_qᵀ], [Φ_q, 0]] at (q1, v1), colour-compressed.
+
+    ``dyn``: the coordinate set (assembly/coordinates.py; a System means its absolute coordinates).
+    """
+    dyn = Absolute.of(dyn)
+    nq, nc = dyn.nq, dyn.nc
+    col = dyn.coloring
 
     def g(y):
-        dq = S @ y
-        Rq = mfac * mass_action(system, q1, dq) - generalized_forces(system, q1 + dq, v1 + cv * dq, t1, z) / bp
-        return jnp.concatenate([Rq, constraints(system, q1 + dq, t1)])
+        dq = y[col.color]  # the seed matrix product S @ y as a gather
+        Rq = mfac * dyn.mass_action(q1, dq) - dyn.generalized_forces(q1 + dq, v1 + cv * dq, t1, z) / bp
+        return jnp.concatenate([Rq, dyn.constraints(q1 + dq, t1)])
 
     Jc = jax.jacfwd(g)(jnp.zeros(col.ncolors, q1.dtype))[:, col.color]
     Jqq = jnp.where(col.mask_q, Jc[:nq], 0.0)
@@ -185,13 +185,14 @@ def iteration_matrix(system: System, q1, v1, t1, z, bp, cv, mfac):
     return jnp.concatenate([jnp.concatenate([Jqq, Pq.T], 1), jnp.concatenate([Pq, jnp.zeros((nc, nc), q1.dtype)], 1)], 0)
 
 
-def step(system: System, integrator, st: StepState, h, opts: StepOptions):
-    """One step of size h from ``st``.
+def step(dyn, integrator, st: StepState, h, opts: StepOptions):
+    """One step of size h from ``st`` in the coordinates ``dyn`` (assembly/coordinates.py).
 
     Returns (new state, error norm, iterations, converged, worst row, failed with a reused
     Newton matrix: retry at the same h, a Newton matrix was built).
     """
-    nq = system.topo.nq
+    dyn = Absolute.of(dyn)
+    nq = dyn.nq
     am, af, gamma, beta = integrator.coefficients
     t1 = st.t + h
     # Rescale the auxiliary acceleration to the new step (note §4).
@@ -213,15 +214,15 @@ def step(system: System, integrator, st: StepState, h, opts: StepOptions):
     def residual(x):
         q1, mu = x[:nq], x[nq:]
         a1, v1, qdd1 = update(q1)
-        phi, vjp = jax.vjp(lambda qq: constraints(system, qq, t1), q1)
-        Q = generalized_forces(system, q1, v1, t1, z)
+        phi, vjp = jax.vjp(lambda qq: dyn.constraints(qq, t1), q1)
+        Q = dyn.generalized_forces(q1, v1, t1, z)
         if integrator.hht:
             al = integrator.alpha
             qm = (1 + al) * q1 - al * st.q
             # (1/(1+α)) M q̈ + (Φ_qᵀλ − Q)_{n+1} − (α/(1+α)) g_n = 0, scaled by 1/β'
-            Rq = (mass_action(system, qm, qdd1) / (1 + al) - Q - al / (1 + al) * st.g) / bp + vjp(mu)[0]
+            Rq = (dyn.mass_action(qm, qdd1) / (1 + al) - Q - al / (1 + al) * st.g) / bp + vjp(mu)[0]
         else:
-            Rq = (mass_action(system, q1, qdd1) - Q) / bp + vjp(mu)[0]
+            Rq = (dyn.mass_action(q1, qdd1) - Q) / bp + vjp(mu)[0]
         return jnp.concatenate([Rq, phi])
 
     def fresh_factors(x):
@@ -229,14 +230,14 @@ def step(system: System, integrator, st: StepState, h, opts: StepOptions):
         _, v1, _ = update(q1)
         # The Newton matrix only steers the iteration: no derivative through it (forward-mode
         # sensitivities converge with the iteration itself), so no tangents are carried into it.
-        args = jax.lax.stop_gradient((system, q1, v1, t1, z, bp, cv))
+        args = jax.lax.stop_gradient((dyn, q1, v1, t1, z, bp, cv))
         return lu_factors(iteration_matrix(*args, mfac))
 
     # Predictor.
     a_star = (st.qdd - am * a_n) / (1 - am)
     q_star = st.q + h * st.v + h * h * ((0.5 - beta) * a_n + beta * a_star)
     x0 = jnp.concatenate([q_star, st.lam / bp])
-    w = _weights(system, st.q, opts)
+    w = _weights(dyn, st.q, opts)
     n = x0.shape[0]
     reuse = opts.jacobian_reuse
     r_h = opts.jacobian_h_ratio
@@ -285,11 +286,13 @@ def step(system: System, integrator, st: StepState, h, opts: StepOptions):
     finite = jnp.all(jnp.isfinite(q1)) & jnp.all(jnp.isfinite(v1))
     # The rate test estimates |Φ| after the last update; check it (a cheap evaluation) so every
     # accepted state meets the constraints to 5·phi_tol whatever the estimate said.
-    phi_ok = jnp.max(jnp.abs(constraints(system, q1, t1))) < 5.0 * opts.phi_tol
+    phi_ok = jnp.max(jnp.abs(dyn.constraints(q1, t1))) < 5.0 * opts.phi_tol
     conv = conv & finite & ~bad & phi_ok
     # Reuse the matrix next step unless this one needed many iterations or failed; a failure
     # with a reused matrix is retried at the same h with a fresh one (``stale_fail``).
-    jac_ok = conv & (iters <= opts.reuse_max_iterations) & jnp.all(jnp.isfinite(Jfac[0]))
+    jac_ok = conv & (iters <= opts.reuse_max_iterations)
+    if reuse:  # (an n² check: skipped when the matrix is rebuilt every step anyway)
+        jac_ok = jac_ok & jnp.all(jnp.isfinite(Jfac[0]))
     stale_fail = ~conv & ~fresh
     # Back off from reuse where it keeps failing (stiff, fast-rotating elements): hold fresh
     # matrices for 1, 3, 7, ... 63 steps after each failure; halve the hold after a success.
@@ -303,11 +306,11 @@ def step(system: System, integrator, st: StepState, h, opts: StepOptions):
     else:
         e_vec = h * h * integrator.error_coefficient * (a1 - a_n)
     err = _wrms(e_vec, w)
-    pw1 = power_terms(system, q1, v1, t1, z)
+    pw1 = dyn.power_terms(q1, v1, t1, z)
     wnew = st.w + 0.5 * h * (st.pw + pw1)
     if integrator.hht:
-        _, vjp1 = jax.vjp(lambda qq: constraints(system, qq, t1), q1)
-        g1 = vjp1(lam1)[0] - generalized_forces(system, q1, v1, t1, z)
+        _, vjp1 = jax.vjp(lambda qq: dyn.constraints(qq, t1), q1)
+        g1 = vjp1(lam1)[0] - dyn.generalized_forces(q1, v1, t1, z)
     else:
         g1 = st.g
     new = StepState(t1, q1, v1, a1, qdd1, lam1, h, wnew, pw1, z, g1, Jfac, jac_h, jac_ok, jac_hold, jac_pen)

@@ -1,0 +1,404 @@
+"""The coordinates the integrator runs on: absolute (every model) or planar (planar mechanisms).
+
+``Absolute`` is the formulation of ../shared/notes/formulation.md: per part the COM position
+and four Euler parameters, 7 coordinates, plus modal coordinates of flexible bodies.
+
+``Planar`` runs a planar mechanism on 3 coordinates per part, (dx, dy, θ): the displacement in
+the plane and the rotation about the plane normal n from a reference configuration q_ref, so
+
+    r = r_ref + E (dx, dy),    p = p_n(θ) ⊗ p_ref,   p_n(θ) = (cos θ/2, n sin θ/2)
+
+with E the 3×2 in-plane basis. Every element and joint is still evaluated by the absolute
+functions of ``system.py`` through this map (nothing is re-implemented in 2-D): with
+T = ∂q/∂x, the equations of motion are Tᵀ(M q̈ − Q) + Φ_xᵀλ = 0 and q̈ = T ẍ + Ṫ ẋ, where
+M Ṫ ẋ = 0 because the only second-order term is p̈ ∋ −p θ̇²/4 and 4LᵀJ'L p = 0. The reduction
+is exact (virtual work), not a 2-D approximation: it is used only when the joints confine every
+part to the plane, which ``planar_basis`` proves numerically: the rows of Φ that are not
+identically zero on the planar manifold, combined per joint into independent rows, leave
+exactly the degrees of freedom of the absolute model (nq − nc). Reactions out of the plane,
+energies and every output are then computed in absolute coordinates from q(x), v(x, ẋ)
+(analyses/result.py), so results look the same whichever coordinates ran.
+
+Why: a 7-part planar chain has a Newton matrix of n = 35 instead of 91, and on XLA-CPU the
+LU, triangular solves and n²-sized copies of that matrix are most of the cost of a step
+(bench/README.md).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .sparsity import Coloring, greedy_coloring
+from .system import System, constraints, generalized_forces, mass_action, power_terms
+
+
+@jax.tree_util.register_pytree_node_class
+class Absolute:
+    """The model's own coordinates: q = [r, p] per part (+ modal coordinates)."""
+
+    kind = "absolute"
+
+    def __init__(self, system: System):
+        self.system = system
+
+    @staticmethod
+    def of(system_or_coords):
+        """``Absolute(system)`` for a System, the coordinate set itself otherwise."""
+        return Absolute(system_or_coords) if isinstance(system_or_coords, System) else system_or_coords
+
+    def tree_flatten(self):
+        return (self.system,), None
+
+    @classmethod
+    def tree_unflatten(cls, aux, children):
+        return cls(*children)
+
+    @property
+    def nq(self) -> int:
+        return self.system.nq
+
+    @property
+    def nc(self) -> int:
+        return self.system.nc
+
+    @property
+    def coloring(self) -> Coloring:
+        return self.system.topo.coloring
+
+    def weights(self, q, rtol, atol, atol_p):
+        """Error weights atol + rtol·|q| per coordinate."""
+        nb = self.system.topo.nbody
+        a = jnp.concatenate([jnp.tile(jnp.array([atol] * 3 + [atol_p] * 4), nb), jnp.full(self.system.topo.n_eta, atol)])
+        return a + rtol * jnp.abs(q)
+
+    def constraints(self, q, t):
+        return constraints(self.system, q, t)
+
+    def mass_action(self, q, a):
+        return mass_action(self.system, q, a)
+
+    def generalized_forces(self, q, v, t, z=None):
+        return generalized_forces(self.system, q, v, t, z)
+
+    def power_terms(self, q, v, t, z=None):
+        return power_terms(self.system, q, v, t, z)
+
+    def absolute(self, q, v):
+        return q, v
+
+    def absolute_row(self, i: int) -> int:
+        return int(i)
+
+
+@dataclass(eq=False)
+class PlanarBasis:
+    """Static data of a planar reduction (hashed by identity; ``Topology.planar``, set by assemble)."""
+
+    normal: np.ndarray  # (3,) plane normal, ground
+    E: np.ndarray  # (3, 2) in-plane basis, E[:, 0] × E[:, 1] = normal
+    P: np.ndarray  # (m, nc) rows of the planar constraints as combinations of the absolute rows
+    coloring: Coloring
+    row_map: np.ndarray  # (3 nb + m,) absolute residual row of each planar row (failure messages)
+
+    def __post_init__(self):
+        # P as (m, kmax) row indices and weights: Φ_x = Σ_k w Φ[idx] is one fused gather-reduce
+        # (a dense P @ Φ ran as a 20 µs library call inside the Newton-matrix build).
+        m = self.P.shape[0]
+        nz = [np.flatnonzero(r) for r in self.P]
+        kmax = max([len(z) for z in nz] + [1])
+        self.P_idx = np.zeros((m, kmax), np.int32)
+        self.P_w = np.zeros((m, kmax))
+        for r, z in enumerate(nz):
+            self.P_idx[r, : len(z)] = z
+            self.P_w[r, : len(z)] = self.P[r, z]
+
+    def combine(self, phi):
+        """P @ phi."""
+        return jnp.sum(jnp.asarray(self.P_w) * phi[self.P_idx], 1)
+
+
+def _in_plane(E, d):
+    """E d per row, (k, 2) → (k, 3), as broadcast sums (tiny matmuls are library calls on CPU)."""
+    return d[:, 0:1] * jnp.asarray(E[:, 0]) + d[:, 1:2] * jnp.asarray(E[:, 1])
+
+
+def _on_plane(E, f):
+    """Eᵀ f per row, (k, 3) → (k, 2)."""
+    return jnp.sum(f[:, :, None] * jnp.asarray(E)[None], 1)
+
+
+def _quat_mul(a, b):
+    a0, av = a[..., :1], a[..., 1:]
+    b0, bv = b[..., :1], b[..., 1:]
+    return jnp.concatenate([a0 * b0 - jnp.sum(av * bv, -1, keepdims=True), a0 * bv + b0 * av + jnp.cross(av, bv)], -1)
+
+
+@jax.tree_util.register_pytree_node_class
+class Planar:
+    """Coordinates x = (dx, dy, θ) per part about the reference configuration ``q_ref``."""
+
+    kind = "planar"
+
+    def __init__(self, system: System, q_ref, basis: PlanarBasis):
+        self.system, self.q_ref, self.basis = system, q_ref, basis
+
+    def tree_flatten(self):
+        return (self.system, self.q_ref), self.basis
+
+    @classmethod
+    def tree_unflatten(cls, basis, children):
+        return cls(*children, basis)
+
+    @property
+    def nq(self) -> int:
+        return 3 * self.system.topo.nbody
+
+    @property
+    def nc(self) -> int:
+        return self.basis.P.shape[0]
+
+    @property
+    def coloring(self) -> Coloring:
+        return self.basis.coloring
+
+    def weights(self, x, rtol, atol, atol_p):
+        """The absolute run's weights in planar terms: translations scaled by the in-plane
+        position components, θ by twice the Euler parameters' (δp ≈ δθ/2, |p_i| ≤ 1 → 1/2)."""
+        nb = self.system.topo.nbody
+        r, _, _ = self._frames(x)
+        rp = jnp.abs(_on_plane(self.basis.E, r))
+        w = jnp.concatenate([atol + rtol * rp, jnp.full((nb, 1), 2.0 * atol_p + rtol)], 1)
+        return w.reshape(-1)
+
+    def _frames(self, x):
+        nb = self.system.topo.nbody
+        xb = x.reshape(nb, 3)
+        qr = self.q_ref.reshape(nb, 7)
+        n = jnp.asarray(self.basis.normal)
+        half = 0.5 * xb[:, 2:3]
+        pn = jnp.concatenate([jnp.cos(half), jnp.sin(half) * n], 1)
+        dpn = 0.5 * jnp.concatenate([-jnp.sin(half), jnp.cos(half) * n], 1)  # d p_n / dθ
+        r = qr[:, :3] + _in_plane(self.basis.E, xb[:, :2])
+        return r, _quat_mul(pn, qr[:, 3:]), _quat_mul(dpn, qr[:, 3:])
+
+    def _q(self, x):
+        r, p, _ = self._frames(x)
+        return jnp.concatenate([r, p], 1).reshape(-1)
+
+    def _T(self, x, xd):
+        """T ẋ (velocities in absolute coordinates)."""
+        nb = self.system.topo.nbody
+        xdb = xd.reshape(nb, 3)
+        _, _, dp = self._frames(x)
+        return jnp.concatenate([_in_plane(self.basis.E, xdb[:, :2]), dp * xdb[:, 2:3]], 1).reshape(-1)
+
+    def _Tt(self, x, f):
+        """Tᵀ f (absolute generalized forces → planar)."""
+        nb = self.system.topo.nbody
+        fb = f.reshape(nb, 7)
+        _, _, dp = self._frames(x)
+        return jnp.concatenate([_on_plane(self.basis.E, fb[:, :3]), jnp.sum(dp * fb[:, 3:], 1, keepdims=True)], 1).reshape(-1)
+
+    def constraints(self, x, t):
+        return self.basis.combine(constraints(self.system, self._q(x), t))
+
+    def mass_action(self, x, a):
+        return self._Tt(x, mass_action(self.system, self._q(x), self._T(x, a)))
+
+    def generalized_forces(self, x, xd, t, z=None):
+        return self._Tt(x, generalized_forces(self.system, self._q(x), self._T(x, xd), t, z))
+
+    def power_terms(self, x, xd, t, z=None):
+        return power_terms(self.system, self._q(x), self._T(x, xd), t, z)
+
+    def absolute(self, x, xd):
+        return self._q(x), self._T(x, xd)
+
+    def reduce(self, q, v):
+        """(x, ẋ) of an absolute state on the plane through q_ref: least squares, exact for
+        states of the mechanism (|∂p/∂θ|² = 1/4)."""
+        nb = self.system.topo.nbody
+        qb, vb, qr = q.reshape(nb, 7), v.reshape(nb, 7), self.q_ref.reshape(nb, 7)
+        E = jnp.asarray(self.basis.E)
+        n = jnp.asarray(self.basis.normal)
+        d = (qb[:, :3] - qr[:, :3]) @ E
+        # Rotation of p relative to p_ref about n: p ⊗ p_ref⁻¹ = (cos θ/2, n sin θ/2).
+        pr_inv = qr[:, 3:] * jnp.array([1.0, -1.0, -1.0, -1.0])
+        rel = _quat_mul(qb[:, 3:], pr_inv)
+        th = 2.0 * jnp.arctan2(rel[:, 1:] @ n, rel[:, 0])
+        x = jnp.concatenate([d, th[:, None]], 1).reshape(-1)
+        _, _, dp = self._frames(x)
+        xd = jnp.concatenate([vb[:, :3] @ E, 4.0 * jnp.sum(dp * vb[:, 3:], 1, keepdims=True)], 1).reshape(-1)
+        return x, xd
+
+    def reduce_acceleration(self, x, xd, qdd):
+        """ẍ of absolute accelerations q̈ = T ẍ + Ṫ ẋ (Ṫ ẋ = −p θ̇²/4 is orthogonal to ∂p/∂θ)."""
+        nb = self.system.topo.nbody
+        ab = qdd.reshape(nb, 7)
+        _, _, dp = self._frames(x)
+        return jnp.concatenate([_on_plane(self.basis.E, ab[:, :3]), 4.0 * jnp.sum(dp * ab[:, 3:], 1, keepdims=True)], 1).reshape(-1)
+
+    def reduce_multipliers(self, lam):
+        """λ_x of absolute multipliers λ: the planar rows are P_r·Φ with P's rows orthogonal
+        within a joint and the dropped combinations constant on the plane, so Tᵀ Φ_qᵀ λ =
+        Φ_xᵀ λ_x with λ_x,r = P_r·λ / |P_r|²."""
+        P = self.basis.P
+        return jnp.asarray(P / np.sum(P * P, 1, keepdims=True)) @ lam
+
+    def absolute_row(self, i: int) -> int:
+        return int(self.basis.row_map[int(i)])
+
+
+def _A(p):
+    """Rotation matrices of Euler parameters (k, 4), numpy."""
+    e0, e = p[:, 0], p[:, 1:]
+    ee = np.einsum("ki,kj->kij", e, e)
+    sk = np.zeros((len(p), 3, 3))
+    sk[:, 0, 1], sk[:, 0, 2], sk[:, 1, 2] = -e[:, 2], e[:, 1], -e[:, 0]
+    sk = sk - np.transpose(sk, (0, 2, 1))
+    return (2 * e0**2 - 1)[:, None, None] * np.eye(3) + 2 * (ee + e0[:, None, None] * sk)
+
+
+def _quat_mul_np(a, b):
+    a0, av, b0, bv = a[:, :1], a[:, 1:], b[:, :1], b[:, 1:]
+    return np.concatenate([a0 * b0 - np.sum(av * bv, 1, keepdims=True), a0 * bv + b0 * av + np.cross(av, bv)], 1)
+
+
+def _revolute_normal(system: System, q):
+    """Common axis (ground) of the model's revolute and planar joints at ``q``, or None."""
+    topo = system.topo
+    idx = [k for k, j in enumerate(topo.joints) if getattr(j, "kind", "") in ("revolute", "planar")]
+    if not idx:
+        return None
+    nb = topo.nbody
+    qb = np.asarray(q)[: 7 * nb].reshape(nb, 7)
+    A = np.concatenate([_A(qb[:, 3:]), np.eye(3)[None]], 0)  # ground last
+    mj = np.asarray(topo.joint_marker_j)[idx]
+    C = np.asarray(system.params["marker_C"])[mj]
+    axes = np.einsum("kij,kj->ki", A[topo.marker_body[mj]], C[:, :, 2])
+    n = axes[0] / np.linalg.norm(axes[0])
+    if np.max(np.linalg.norm(np.cross(axes, n), axis=1)) > 1e-9:
+        return None
+    return n
+
+
+def _planar_q(q_ref, x, normal, E):
+    """Absolute q of planar coordinates x about q_ref (numpy; the map of Planar._q)."""
+    nb = len(x) // 3
+    xb, qr = x.reshape(nb, 3), np.asarray(q_ref).reshape(nb, 7)
+    half = 0.5 * xb[:, 2:3]
+    pn = np.concatenate([np.cos(half), np.sin(half) * normal], 1)
+    return np.concatenate([qr[:, :3] + xb[:, :2] @ E.T, _quat_mul_np(pn, qr[:, 3:])], 1).reshape(-1)
+
+
+def _planar_T(q, normal, E):
+    """T = ∂q/∂x at the absolute configuration q (numpy, (7 nb, 3 nb))."""
+    nb = len(q) // 7
+    dp = _quat_mul_np(np.tile(np.concatenate([[0.0], 0.5 * normal]), (nb, 1)), q.reshape(nb, 7)[:, 3:])
+    T = np.zeros((7 * nb, 3 * nb))
+    for b in range(nb):
+        T[7 * b : 7 * b + 3, 3 * b : 3 * b + 2] = E
+        T[7 * b + 3 : 7 * b + 7, 3 * b + 2] = dp[b]
+    return T
+
+
+def planar_basis(system: System, q_ref) -> tuple[PlanarBasis | None, str]:
+    """Planar reduction of ``system`` about the configuration ``q_ref`` (assembly), or (None, why).
+
+    Every part must be confined to planar motion by the joints: a common revolute axis n, and
+    the rows of Φ whose gradient along the plane (Φ_q T) is not zero at random planar
+    configurations (dx, dy, θ per part; the other rows are constant there: the planarity rows)
+    must leave exactly the absolute model's degrees of freedom. Rows are combined per joint
+    (SVD of the sampled gradients), so the planar constraints keep the absolute sparsity.
+    """
+    try:
+        return _planar_basis(system, jnp.asarray(q_ref))
+    except Exception as e:  # a model the sampling cannot evaluate simply runs in absolute coordinates
+        return None, f"planar check failed: {type(e).__name__}: {e}"
+
+
+def _planar_basis(system: System, q_ref):
+    topo = system.topo
+    nb, nc = topo.nbody, topo.nc
+    if topo.n_eta:
+        return None, "flexible bodies"
+    if nb == 0:
+        return None, "no parts"
+    n = _revolute_normal(system, q_ref)
+    if n is None:
+        return None, "no common revolute axis"
+    a = np.eye(3)[int(np.argmin(np.abs(n)))]
+    e1 = np.cross(n, a)
+    e1 /= np.linalg.norm(e1)
+    E = np.stack([e1, np.cross(n, e1)], 1)
+    # Constraint gradients along the plane, Φ_q T, at random planar configurations and times:
+    # rows whose gradient vanishes at every sample are constant on the plane (planarity rows).
+    # Uses the constraint Jacobian assemble() has already compiled for this topology.
+    from .system import _jit_constraint_jacobian
+
+    rng = np.random.default_rng(0)
+    size = 1.0 + float(np.max(np.abs(np.asarray(q_ref).reshape(nb, 7)[:, :3])))
+    G = []
+    for k in range(12):
+        x = np.zeros(3 * nb)
+        if k:
+            x = np.concatenate([rng.uniform(-size, size, (nb, 2)), rng.uniform(-np.pi, np.pi, (nb, 1))], 1).reshape(-1)
+        qk = _planar_q(q_ref, x, n, E)
+        Jk = np.asarray(_jit_constraint_jacobian(system, jnp.asarray(qk), float(rng.uniform(0.0, 1.0)) if k else 0.0))
+        G.append(Jk @ _planar_T(qk, n, E))
+    if not np.all(np.isfinite(np.concatenate(G, 1))):
+        return None, "constraints not finite on the plane"
+    J3 = G[0]  # at x = 0
+    G = np.concatenate(G, 1)  # (nc, 12 · 3 nb)
+    owner = topo.ct.row_owner
+    rows = []
+    for o in np.unique(owner[owner >= 0]):
+        idx = np.flatnonzero(owner == o)
+        U, sv, _ = np.linalg.svd(G[idx], full_matrices=False)
+        tol = 1e-9 * max(1.0, float(np.max(np.abs(G[idx]))))
+        for k in np.flatnonzero(sv > tol):
+            u = np.where(np.abs(U[:, k]) > 1e-12, U[:, k], 0.0)
+            row = np.zeros(nc)
+            row[idx] = u / u[np.argmax(np.abs(u))]
+            rows.append(row)
+    P = np.array(rows).reshape(len(rows), nc)
+    m = P.shape[0]
+    dof_abs = topo.nq - nc
+    if 3 * nb - m != dof_abs:
+        return None, f"{3 * nb - m} planar vs {dof_abs} spatial degrees of freedom"
+    Jx = P @ J3
+    if m and np.linalg.matrix_rank(Jx, tol=1e-9 * max(1.0, np.max(np.abs(Jx)))) < m:
+        return None, "dependent planar constraints"
+    # Sparsity: the body blocks of the absolute pattern; constraint rows through P.
+    col = topo.coloring
+    mask_q = np.kron(col.mask_q[: 7 * nb, : 7 * nb].reshape(nb, 7, nb, 7).any((1, 3)), np.ones((3, 3), bool))
+    body_phi = col.mask_phi[:, : 7 * nb].reshape(nc, nb, 7).any(2)  # (nc, nb)
+    mask_phi = np.kron((np.abs(P) > 0).astype(int) @ body_phi.astype(int) > 0, np.ones((1, 3), bool))
+    row_map = np.concatenate([7 * np.repeat(np.arange(nb), 3), topo.nq + np.argmax(np.abs(P) > 0, 1)]) if m else 7 * np.repeat(np.arange(nb), 3)
+    color = greedy_coloring(np.concatenate([mask_q, mask_phi], 0))
+    seed = np.zeros((3 * nb, int(color.max()) + 1))
+    seed[np.arange(3 * nb), color] = 1.0
+    coloring = Coloring(color=color, seed=seed, mask_q=mask_q, mask_phi=mask_phi, dense=col.dense)
+    return PlanarBasis(normal=n, E=E, P=P, coloring=coloring, row_map=row_map), "planar"
+
+
+def coordinate_set(system: System, q_ref, coordinates: str = "auto"):
+    """The coordinates to integrate ``system`` in: "absolute", "planar" (error if the model is not
+    planar) or "auto" (planar where the joints confine every part to one plane)."""
+    if coordinates not in ("auto", "absolute", "planar"):
+        raise ValueError(f"coordinates must be 'auto', 'absolute' or 'planar', got {coordinates!r}.")
+    if coordinates == "absolute":
+        return Absolute(system)
+    basis, why = getattr(system.topo, "planar", (None, "not checked"))
+    if basis is None:
+        if coordinates == "planar":
+            raise ValueError(
+                f"Model '{system.topo.name}' cannot run in planar coordinates ({why}): every part must be "
+                "confined by its joints to one plane (revolute axes parallel to its normal). Use coordinates='absolute'."
+            )
+        return Absolute(system)
+    return Planar(system, q_ref, basis)
