@@ -18,7 +18,7 @@ import time
 
 from common import add_output_args, bench_simulate, build_chain, emit, log, timed
 
-COLUMNS = ["N", "coordinates", "newton n", "assemble [s]", "compile [s]", "xla [s]", "cache hits", "wall [s]", "steps", "rejected", "newton", "jacobians", "us/step", "cpu us/step", "us/newton"]
+COLUMNS = ["N", "coordinates", "newton n", "assemble [s]", "compile [s]", "xla [s]", "cache hits", "wall [s]", "steps", "rejected", "newton", "jacobians", "us/step", "median us/step", "runs", "cpu us/step", "us/newton"]
 
 
 def profile_run(system, t_end, top: int = 20):
@@ -59,7 +59,7 @@ def main(argv=None):
         system, t_asm = timed(pl.assemble, build_chain(n))
         row = {"N": n, "assemble [s]": t_asm}
         try:
-            row.update(bench_simulate(system, args.t_end, profile_chunks=args.profile, coordinates=args.coordinates))
+            row.update(bench_simulate(system, args.t_end, profile_chunks=args.profile, repeat=args.repeat, coordinates=args.coordinates))
         except Exception as exc:  # report, keep going with the other sizes
             row["status"] = f"{type(exc).__name__}: {exc}"
         rows.append(row)
