@@ -32,6 +32,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..spatial.rotation import A_of_p
 from .sparsity import Coloring, greedy_coloring
 from .system import System, constraints, generalized_forces, mass_action, power_terms
 
@@ -132,6 +133,7 @@ def _on_plane(E, f):
 
 
 def _quat_mul(a, b):
+    """Euler-parameter product a ⊗ b (A(a ⊗ b) = A(a) A(b)), rows (..., 4)."""
     a0, av = a[..., :1], a[..., 1:]
     b0, bv = b[..., :1], b[..., 1:]
     return jnp.concatenate([a0 * b0 - jnp.sum(av * bv, -1, keepdims=True), a0 * bv + b0 * av + jnp.cross(av, bv)], -1)
@@ -253,21 +255,6 @@ class Planar:
         return int(self.basis.row_map[int(i)])
 
 
-def _A(p):
-    """Rotation matrices of Euler parameters (k, 4), numpy."""
-    e0, e = p[:, 0], p[:, 1:]
-    ee = np.einsum("ki,kj->kij", e, e)
-    sk = np.zeros((len(p), 3, 3))
-    sk[:, 0, 1], sk[:, 0, 2], sk[:, 1, 2] = -e[:, 2], e[:, 1], -e[:, 0]
-    sk = sk - np.transpose(sk, (0, 2, 1))
-    return (2 * e0**2 - 1)[:, None, None] * np.eye(3) + 2 * (ee + e0[:, None, None] * sk)
-
-
-def _quat_mul_np(a, b):
-    a0, av, b0, bv = a[:, :1], a[:, 1:], b[:, :1], b[:, 1:]
-    return np.concatenate([a0 * b0 - np.sum(av * bv, 1, keepdims=True), a0 * bv + b0 * av + np.cross(av, bv)], 1)
-
-
 def _revolute_normal(system: System, q):
     """Common axis (ground) of the model's revolute and planar joints at ``q``, or None."""
     topo = system.topo
@@ -276,7 +263,7 @@ def _revolute_normal(system: System, q):
         return None
     nb = topo.nbody
     qb = np.asarray(q)[: 7 * nb].reshape(nb, 7)
-    A = np.concatenate([_A(qb[:, 3:]), np.eye(3)[None]], 0)  # ground last
+    A = np.concatenate([np.asarray(A_of_p(jnp.asarray(qb[:, 3:]))), np.eye(3)[None]], 0)  # ground last
     mj = np.asarray(topo.joint_marker_j)[idx]
     C = np.asarray(system.params["marker_C"])[mj]
     axes = np.einsum("kij,kj->ki", A[topo.marker_body[mj]], C[:, :, 2])
@@ -292,13 +279,13 @@ def _planar_q(q_ref, x, normal, E):
     xb, qr = x.reshape(nb, 3), np.asarray(q_ref).reshape(nb, 7)
     half = 0.5 * xb[:, 2:3]
     pn = np.concatenate([np.cos(half), np.sin(half) * normal], 1)
-    return np.concatenate([qr[:, :3] + xb[:, :2] @ E.T, _quat_mul_np(pn, qr[:, 3:])], 1).reshape(-1)
+    return np.concatenate([qr[:, :3] + xb[:, :2] @ E.T, np.asarray(_quat_mul(pn, qr[:, 3:]))], 1).reshape(-1)
 
 
 def _planar_T(q, normal, E):
     """T = ∂q/∂x at the absolute configuration q (numpy, (7 nb, 3 nb))."""
     nb = len(q) // 7
-    dp = _quat_mul_np(np.tile(np.concatenate([[0.0], 0.5 * normal]), (nb, 1)), q.reshape(nb, 7)[:, 3:])
+    dp = np.asarray(_quat_mul(np.tile(np.concatenate([[0.0], 0.5 * normal]), (nb, 1)), q.reshape(nb, 7)[:, 3:]))
     T = np.zeros((7 * nb, 3 * nb))
     for b in range(nb):
         T[7 * b : 7 * b + 3, 3 * b : 3 * b + 2] = E
