@@ -367,9 +367,7 @@ def _planar_basis(system: System, q_ref):
     mask_phi = np.kron((np.abs(P) > 0).astype(int) @ body_phi.astype(int) > 0, np.ones((1, 3), bool))
     row_map = np.concatenate([7 * np.repeat(np.arange(nb), 3), topo.nq + np.argmax(np.abs(P) > 0, 1)]) if m else 7 * np.repeat(np.arange(nb), 3)
     color = greedy_coloring(np.concatenate([mask_q, mask_phi], 0))
-    seed = np.zeros((3 * nb, int(color.max()) + 1))
-    seed[np.arange(3 * nb), color] = 1.0
-    coloring = Coloring(color=color, seed=seed, mask_q=mask_q, mask_phi=mask_phi, dense=col.dense)
+    coloring = Coloring(color=color, mask_q=mask_q, mask_phi=mask_phi, dense=col.dense)
     return PlanarBasis(normal=n, E=E, P=P, coloring=coloring, row_map=row_map), "planar"
 
 

@@ -29,15 +29,14 @@ from .select import Select
 class Coloring:
     """Static colouring data (numpy; part of the hashed-by-identity topology)."""
 
-    color: np.ndarray  # (nq,) colour of each coordinate column
-    seed: np.ndarray  # (nq, ncolors) 0/1 seed matrix
+    color: np.ndarray  # (nq,) colour of each coordinate column (the seed matrix S[i, color[i]] = 1)
     mask_q: np.ndarray  # (nq, nq) structural non-zeros of the dynamic rows
     mask_phi: np.ndarray  # (nc, nq) structural non-zeros of the constraint rows
     dense: bool  # True when the pattern had to be taken dense
 
     @property
     def ncolors(self) -> int:
-        return self.seed.shape[1]
+        return int(self.color.max()) + 1 if self.color.size else 0
 
 
 def _column_groups(topo) -> list[np.ndarray]:
@@ -120,6 +119,4 @@ def jacobian_coloring(topo) -> Coloring:
         for b in s:
             mask_phi[r, cols[b]] = True
     color = greedy_coloring(np.concatenate([mask_q, mask_phi], 0))
-    seed = np.zeros((nq, int(color.max()) + 1 if nq else 0))
-    seed[np.arange(nq), color] = 1.0
-    return Coloring(color=color, seed=seed, mask_q=mask_q, mask_phi=mask_phi, dense=dense)
+    return Coloring(color=color, mask_q=mask_q, mask_phi=mask_phi, dense=dense)

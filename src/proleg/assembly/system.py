@@ -9,7 +9,6 @@ Python. The resulting :class:`System` is a pytree whose leaves are the numeric p
 from __future__ import annotations
 
 import dataclasses
-
 import warnings
 from dataclasses import dataclass, field
 
