@@ -14,8 +14,14 @@ Cases (``--cases``):
                   two tilts, 0 about the hinge axis; damping 1e3 N s/m, 10 N m s/rad, 0),
                   each with a RotationalSpringDamper about the hinge as a continuous PD servo
                   holding the initial angle (k = 300 N m/rad, c = 6 N m s/rad, seed 000).
-``revolute_pid``  hip and knee are Revolutes with PID servos (kp = 300 N m/rad, kd = 6 N m s/rad,
-                  hold the initial angle) sampled at 1 kHz (zero-order hold).
+``revolute_pid``  hip and knee are Revolutes with PID servos (kp = 300 N m/rad, kd = 2 N m s/rad,
+                  hold the initial angle) sampled at 1 kHz (zero-order hold). Not kd = 6 as in
+                  the continuous PD: sampled at 1 kHz, a D gain is stable only below 2·I/T
+                  (control/servo.py), and this light leg's knee has an effective inertia of
+                  0.0021 kg m² (shoulder free), so kd < 4.1 N m s/rad. With kd = 6 the knee servo
+                  rings at 500 Hz with growing amplitude, the leg folds before touchdown and the
+                  integrator follows the ringing with ~43,000 steps per second (measured
+                  2026-11-22; proleg now warns about such a servo when the run starts).
 
 Columns: ``wall [s]`` is the second simulate call (after compilation) for 1 s simulated; the
 target is < 0.5 s. ``cpu [s]`` is the CPU time of that call (all threads of this process): on
@@ -43,6 +49,7 @@ G = 9.81
 L_THIGH, L_SHANK, M_HIP, M_THIGH, M_SHANK = 0.2, 0.2, 2.0, 0.5, 0.3
 FOOT_R, DROP = 0.02, 0.05
 KP, KD = 300.0, 6.0
+KD_SAMPLED = 2.0  # the 1 kHz PID's D gain (stable below 4.1 N m s/rad for this knee; docstring)
 T_END, DT_OUT = 1.0, 5e-3
 SIM = dict(rtol=1e-6, atol=1e-7, dt_max=DT_OUT)
 CASES = {
@@ -89,7 +96,7 @@ def build_leg(hinges: str):
             model.add_force(pl.RotationalSpringDamper(f"{name}_pd", mi, mj, stiffness=KP, damping=KD))
         else:
             model.add_joint(pl.Revolute(name, child, parent, at=tuple(at), axis=(0, 1, 0)))
-            model.add_controller(pl.PID(f"{name}_servo", joint=name, kp=KP, kd=KD, period=1e-3))
+            model.add_controller(pl.PID(f"{name}_servo", joint=name, kp=KP, kd=KD_SAMPLED, period=1e-3))
     foot = model.add_marker(shank, "foot_centre", tuple(foot_p))
     model.add_contact(
         pl.SphereContact(

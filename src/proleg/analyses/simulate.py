@@ -201,6 +201,8 @@ def simulate(
     q, v, qdd, lam, z0, (pw, g0) = _consistent_state(system, q0, v0, t0, z0)
     q_ic, v_ic = q, v
     traced = _any_traced((system.params, q))
+    if not traced:
+        _warn_unstable_servos(system, q, v, t0, z0)
     dyn = coordinate_set(system, q, coordinates)
     if dyn.kind != "absolute":
         q, v, qdd, lam, g0 = _reduced_start(dyn, q, v, qdd, lam, z0)
@@ -278,6 +280,17 @@ def simulate(
     if status != Status.SUCCESS and throw:
         raise SolverError(msg, result)
     return result
+
+
+def _warn_unstable_servos(system, q, v, t0, z0):
+    """A warning for each PID that is unstable as sampled (control/servo.py): such a servo rings
+    at half its sample rate, and the run crawls with tiny steps without saying why."""
+    from ..control.servo import servo_stability, servo_warnings
+
+    for msg in servo_warnings(servo_stability(system, q, v, t0, z0)):
+        import warnings
+
+        warnings.warn(msg, stacklevel=3)
 
 
 @jax.jit
