@@ -29,6 +29,26 @@ def _enable_compilation_cache():
 _enable_compilation_cache()
 
 
+def _jaxlib_has_option(name: str) -> bool:
+    """Whether this jaxlib's XLA knows the option ``name`` (XLA aborts the process on an unknown
+    flag in XLA_FLAGS, so the name is looked up in jaxlib's libraries first)."""
+    import glob
+    import mmap
+    import os
+
+    try:
+        import jaxlib
+
+        libs = sorted(glob.glob(os.path.join(os.path.dirname(jaxlib.__file__), "*.so")), key=os.path.getsize, reverse=True)
+        for lib in libs:
+            with open(lib, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as m:
+                if m.find(name.encode()) >= 0:
+                    return True
+    except (OSError, ValueError, ImportError):
+        return False
+    return False
+
+
 def _xla_cpu_defaults():
     """Turn off XLA-CPU's concurrency-optimized scheduler (XLA_FLAGS) before JAX starts its backend.
 
@@ -37,30 +57,18 @@ def _xla_cpu_defaults():
     measured on a 2-core VM, 7-link chain 122 → 85 µs/step, 7-link bushing chain 329 → 189, with
     half the CPU time (bench/README.md). A 1,000-lane vmap batch was 15 % slower with it off.
     Left alone when XLA_FLAGS already names the option (set it to true to keep the scheduler),
-    when PROLEG_XLA_DEFAULTS=0, or when this jaxlib does not have the option (XLA aborts the
-    process on an unknown flag, so its name is looked up in jaxlib's libraries first).
+    when PROLEG_XLA_DEFAULTS=0, or when this jaxlib does not have the option.
     The flags are read when JAX's backend starts: importing proleg after running JAX code has
     no effect.
     """
-    import glob
-    import mmap
     import os
 
     name = "xla_cpu_enable_concurrency_optimized_scheduler"
     flags = os.environ.get("XLA_FLAGS", "")
     if os.environ.get("PROLEG_XLA_DEFAULTS", "1") == "0" or name in flags:
         return
-    try:
-        import jaxlib
-
-        libs = sorted(glob.glob(os.path.join(os.path.dirname(jaxlib.__file__), "*.so")), key=os.path.getsize, reverse=True)
-        for lib in libs:
-            with open(lib, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as m:
-                if m.find(name.encode()) >= 0:
-                    os.environ["XLA_FLAGS"] = f"{flags} --{name}=false".strip()
-                    return
-    except (OSError, ValueError, ImportError):
-        return
+    if _jaxlib_has_option(name):
+        os.environ["XLA_FLAGS"] = f"{flags} --{name}=false".strip()
 
 
 _xla_cpu_defaults()
@@ -94,6 +102,8 @@ from .assembly.system import assemble as assemble
 from .solvers.galpha import HHT as HHT
 from .solvers.galpha import GeneralizedAlpha as GeneralizedAlpha
 from .analyses.simulate import simulate as simulate
+from .analyses.sweep import SweepResult as SweepResult
+from .analyses.sweep import sweep as sweep
 from .analyses.result import Result as Result
 from .analyses.equilibrium import Equilibrium as Equilibrium
 from .analyses.equilibrium import solve_equilibrium as solve_equilibrium

@@ -1,0 +1,173 @@
+"""Parameter sweeps: many variants of one model in one compiled, vectorised run (``jax.vmap``).
+
+``sweep(system, {"spring.stiffness": ks}, t_end=1.0)`` simulates one variant per value (the
+model's structure is shared, so there is one compilation) and returns a :class:`SweepResult`:
+``len(res)`` variants, ``res.status`` / ``res.stats`` per variant, ``res[i]`` the i-th variant's
+ordinary :class:`~proleg.analyses.result.Result` (every output accessor), and ``res.to_frame()``
+a long pandas table with the swept values beside each variant's outputs.
+
+Speed on the CPU. The batch is compiled without XLA-CPU's YNNPACK fusions: under ``vmap`` the
+small 3×3 products of the element code become batched dots that YNNPACK runs lane by lane
+(1–2 ms per fusion for 1,000 lanes); the plain XLA loops are ~3× faster per lane-step on the
+bench model (bench/vmap_batch.py). Each variant steps through its output times on its own
+(``simulate(free_running=True)``), but the batch's loop runs until the slowest variant is done:
+variants with very different step counts waste work, so group them.
+On a GPU the same call runs every variant in parallel (bench/gpu_batch.py).
+"""
+
+from __future__ import annotations
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..assembly.system import System
+from ..errors import ModelError, Status
+from .result import Result
+from .simulate import simulate
+
+# Options for the batch's XLA compilation on the CPU (module docstring).
+_CPU_BATCH_OPTIONS = {"xla_cpu_experimental_ynn_fusion_type": ""}
+
+
+def batch_compiler_options() -> dict:
+    """XLA compiler options for a vmapped batch on this backend (empty where none apply)."""
+    from .. import _jaxlib_has_option
+
+    if jax.default_backend() != "cpu":
+        return {}
+    return {k: v for k, v in _CPU_BATCH_OPTIONS.items() if _jaxlib_has_option(k)}
+
+
+class SweepResult:
+    """Variants of one model simulated together (:func:`sweep`).
+
+    ``values``: {parameter name: array (n_variants, ...)}; ``t`` (n_out,); ``q``, ``v``, ``w``,
+    ``z``: (n_variants, n_out, ...); ``status``: a :class:`~proleg.errors.Status` per variant;
+    ``fail_time`` [s] (NaN for the variants that did not fail); ``stats``: {"steps", "rejected",
+    "newton_iterations", "jacobians"} arrays (n_variants,). ``wall_time`` [s] of the batch run
+    and ``compile_time`` [s] of its compilation.
+    """
+
+    def __init__(self, system, values, t, q, v, w, z, status, fail_time, stats, integrator, coordinates):
+        self.system, self.values, self.t = system, values, np.asarray(t)
+        self.q, self.v, self.w, self.z = q, v, w, z
+        self.status = [Status(int(s)) for s in np.asarray(status)]
+        self.fail_time = np.where(np.asarray(status) == 0, np.nan, np.asarray(fail_time, float))
+        st = np.asarray(stats)
+        self.stats = {k: st[:, i] for i, k in enumerate(("steps", "rejected", "newton_iterations", "jacobians"))}
+        self.integrator, self.coordinates = integrator, coordinates
+        self.wall_time = self.compile_time = None
+
+    def __len__(self):
+        return len(self.status)
+
+    @property
+    def ok(self) -> np.ndarray:
+        """(n_variants,) bool: the variants that ran to t_end."""
+        return np.array([s == Status.SUCCESS for s in self.status])
+
+    def system_of(self, i: int) -> System:
+        """The i-th variant's System (``system.with_params`` of its values)."""
+        return self.system.with_params({k: v[i] for k, v in self.values.items()})
+
+    def __getitem__(self, i: int) -> Result:
+        """The i-th variant as an ordinary Result (outputs up to its failure time, if it failed)."""
+        i = int(range(len(self))[i])
+        keep = self.t <= self.fail_time[i] + 1e-12 if self.status[i] != Status.SUCCESS else slice(None)
+        st = self.status[i]
+        msg = "success" if st == Status.SUCCESS else f"{st.describe()} at t = {self.fail_time[i]:.6g} s (variant {i} of a sweep)."
+        stats = [self.stats[k][i] for k in ("steps", "rejected", "newton_iterations", "jacobians")]
+        r = Result(
+            self.system_of(i), self.t[keep], jnp.asarray(self.q[i][keep]), jnp.asarray(self.v[i][keep]),
+            jnp.asarray(self.w[i][keep]), jnp.asarray(self.z[i][keep]), stats=stats, status=st, message=msg,
+            integrator=self.integrator,
+        )
+        r.coordinates = self.coordinates
+        return r
+
+    def to_frame(self):
+        """Long pandas table: a ``variant`` column, the swept values (scalar parameters; vector
+        ones as ``name[k]``), then each variant's :meth:`Result.to_frame` columns."""
+        import pandas as pd
+
+        frames = []
+        for i in range(len(self)):
+            f = self[i].to_frame()
+            f.insert(0, "variant", i)
+            for k, (name, val) in enumerate(self.values.items()):
+                x = np.asarray(val[i])
+                if x.ndim == 0:
+                    f.insert(1 + k, name, float(x))
+                else:
+                    for j, xj in enumerate(x.ravel()):
+                        f.insert(1 + k, f"{name}[{j}]", float(xj))
+            frames.append(f)
+        return pd.concat(frames, ignore_index=True)
+
+
+def _values(system: System, params: dict) -> tuple[dict, int]:
+    """Checked {name: (n, *shape) float array} and n."""
+    if not params:
+        raise ModelError("sweep: no parameters to sweep. Pass e.g. {'spring.stiffness': [10.0, 100.0]}.")
+    out, n = {}, None
+    for name, vals in params.items():
+        arr = np.asarray(vals, float)
+        if arr.ndim == 0 or arr.shape[0] == 0:
+            raise ModelError(f"sweep: parameter '{name}' needs an array of values, one per variant (got {vals!r}).")
+        if not np.all(np.isfinite(arr)):
+            raise ModelError(f"sweep: parameter '{name}' has NaN or inf values; every variant needs finite values.")
+        if n is None:
+            n = arr.shape[0]
+        elif arr.shape[0] != n:
+            raise ModelError(f"sweep: parameter '{name}' has {arr.shape[0]} values but the others have {n}; give one value per variant.")
+        out[name] = arr
+    # Every name and per-variant shape is checked by with_params itself (it names the element).
+    system.with_params({k: v[0] for k, v in out.items()})
+    return out, n
+
+
+def sweep(system: System, params: dict, t_end: float, dt_output: float | None = None, *, batch_size: int | None = None, **simulate_kw) -> SweepResult:
+    """Simulate one variant of ``system`` per row of ``params`` ({name: values}, the names of
+    ``system.with_params``, each with one value per variant), all in one compiled ``jax.vmap``
+    batch. ``batch_size`` splits a long sweep into batches of that many variants (one
+    compilation: the last batch is padded). Other keywords go to :func:`proleg.simulate`
+    (tolerances, ``fixed_step``, ``coordinates``, ...). A variant that fails is reported in
+    ``status`` with the time it stopped; the others are unaffected.
+    """
+    import time
+
+    values, n = _values(system, params)
+    for k in ("progress", "throw", "on_chunk"):
+        if k in simulate_kw:
+            raise TypeError(f"sweep: '{k}' is not available in a sweep (variants run together).")
+    names = list(values)
+    bs = n if batch_size is None else max(1, min(int(batch_size), n))
+    meta = {}
+
+    def one(vals):
+        res = simulate(
+            system.with_params(dict(zip(names, vals))), t_end, dt_output, progress=False, throw=False,
+            chunk=1_000_000, free_running=True, **simulate_kw,
+        )
+        meta["t"], meta["integrator"], meta["coordinates"] = res.t, res.integrator, res.coordinates
+        return (res.q, res.v, res.w, res.z, *res.traced_status)
+
+    t0 = time.perf_counter()
+    first = [jnp.asarray(values[k][:bs]) for k in names]
+    fn = jax.jit(jax.vmap(one)).lower(first).compile(compiler_options=batch_compiler_options() or None)
+    t_compile = time.perf_counter() - t0
+    parts = []
+    t0 = time.perf_counter()
+    for b in range(math.ceil(n / bs)):
+        lo, hi = b * bs, min((b + 1) * bs, n)
+        chunk = [np.concatenate([values[k][lo:hi], np.repeat(values[k][hi - 1 : hi], bs - (hi - lo), 0)]) for k in names]
+        out = jax.block_until_ready(fn([jnp.asarray(c) for c in chunk]))
+        parts.append([np.asarray(o)[: hi - lo] for o in out])
+    wall = time.perf_counter() - t0
+    q, v, w, z, status, ft, stats = (np.concatenate(p, 0) for p in zip(*parts))
+    res = SweepResult(system, values, meta["t"], q, v, w, z, status, ft, stats, meta["integrator"], meta["coordinates"])
+    res.wall_time, res.compile_time = wall, t_compile
+    return res
