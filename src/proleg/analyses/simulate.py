@@ -296,11 +296,11 @@ def simulate(
 def _warn_unstable_servos(system, q, v, t0, z0):
     """A warning for each PID that is unstable as sampled (control/servo.py): such a servo rings
     at half its sample rate, and the run crawls with tiny steps without saying why."""
+    import warnings
+
     from ..control.servo import servo_stability, servo_warnings
 
     for msg in servo_warnings(servo_stability(system, q, v, t0, z0)):
-        import warnings
-
         warnings.warn(msg, stacklevel=3)
 
 
