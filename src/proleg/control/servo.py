@@ -55,9 +55,11 @@ def _command_gains(system: System, q, v, t, z):
     nq, nc = M.shape[0], Pq.shape[0]
     S = jnp.block([[M, Pq.T], [Pq, jnp.zeros((nc, nc))]])
     dqdd = jnp.linalg.solve(S, jnp.concatenate([dQ, jnp.zeros((nc, len(pids)))]))[:nq]
-    rate = lambda vv: joint_coordinate(g.pid_oh_i, g.pid_oh_j, g.pid_rot, kinematics(system, q, vv)[1])[1]
-    th, _, _, _ = joint_coordinate(g.pid_oh_i, g.pid_oh_j, g.pid_rot, kinematics(system, q, v)[1])
-    J = jax.jacfwd(rate)(v)  # θ̇ is linear in v: θ̈ changes by J·Δq̈
+    def rate(vv):
+        th, th_d, _, _ = joint_coordinate(g.pid_oh_i, g.pid_oh_j, g.pid_rot, kinematics(system, q, vv)[1])
+        return th_d, th
+
+    J, th = jax.jacfwd(rate, has_aux=True)(v)  # θ̇ is linear in v: θ̈ changes by J·Δq̈
     return jnp.sum(J * dqdd.T, 1), th
 
 

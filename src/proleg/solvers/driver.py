@@ -76,6 +76,9 @@ def advance(dyn, integrator, dopts: DriverOptions, st: StepState, h, out_times, 
     Ts = dopts.sample_period
     eps_t = 1e-12
 
+    def reached(t, te):
+        return t >= te - eps_t * jnp.maximum(1.0, jnp.abs(te))
+
     def next_event(t, te):
         if Ts is not None:
             ts = (jnp.floor(t / Ts + 1e-9) + 1.0) * Ts
@@ -128,7 +131,7 @@ def advance(dyn, integrator, dopts: DriverOptions, st: StepState, h, out_times, 
 
         def cond(c):
             st, status = c[0], c[3]
-            return valid & (status == 0) & (st.t < te - eps_t * jnp.maximum(1.0, jnp.abs(te)))
+            return valid & (status == 0) & ~reached(st.t, te)
 
         c = jax.lax.while_loop(cond, partial(attempt, te), c)
         st, status = c[0], c[3]
@@ -148,7 +151,7 @@ def advance(dyn, integrator, dopts: DriverOptions, st: StepState, h, out_times, 
             te = out_times[k]
             inner = attempt(te, inner)
             s = inner[0]
-            hit = (inner[3] == 0) & (s.t >= te - eps_t * jnp.maximum(1.0, jnp.abs(te)))
+            hit = (inner[3] == 0) & reached(s.t, te)
             bufs = tuple(b.at[k].set(jnp.where(hit, x, b[k])) for b, x in zip(bufs, (s.q, s.v, s.w, s.z)))
             return inner, k + hit.astype(k.dtype), bufs
 
