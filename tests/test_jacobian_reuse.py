@@ -8,6 +8,7 @@ from pathlib import Path
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 import proleg as pl
 from proleg.solvers.batching import any_lane
@@ -37,6 +38,7 @@ def test_any_lane_is_identity_alone_and_or_over_a_batch():
     assert float(jax.jacfwd(f)(2.0)) == 2.0
 
 
+@pytest.mark.slow  # ~25 s of compiling; any_lane's batch-wide OR is checked above in < 1 s
 def test_reuse_under_vmap_equals_the_loop():
     system = pl.assemble(build_chain(2, spring=100.0))
     kw = dict(t_end=0.3, dt_output=0.1, progress=False, jacobian_reuse=True)

@@ -33,7 +33,9 @@ VALUES = {"spring.stiffness": [20.0, 200.0, 1e9], "spring.free_length": [1.0, 0.
 
 @pytest.fixture(scope="module")
 def swept(system):
-    return pl.sweep(system, VALUES, **KW)
+    # Two workers: batches of 2 and 1 (padded) run at the same time in two threads, their
+    # Newton matrices factored lane by lane (the concurrent path of sweep).
+    return pl.sweep(system, VALUES, workers=2, **KW)
 
 
 def test_each_variant_equals_its_own_simulation(system, swept):
@@ -76,5 +78,26 @@ def test_bad_sweep_input_is_refused(system):
         pl.sweep(system, {}, **KW)
     with pytest.raises(Exception, match="nosuch"):
         pl.sweep(system, {"nosuch.stiffness": [1.0]}, **KW)
+    with pytest.raises(ValueError, match="workers"):
+        pl.sweep(system, {"spring.stiffness": [1.0]}, workers=0, **KW)
     with pytest.raises(TypeError, match="progress"):
         pl.sweep(system, {"spring.stiffness": [1.0]}, progress=True, **KW)
+
+
+def test_lane_by_lane_lu_equals_the_batched_lu():
+    """``StepOptions.lu_per_lane``: the same LAPACK factors, one call per lane under vmap."""
+    import jax
+    import jax.numpy as jnp
+
+    from proleg.solvers.galpha import lu_apply, lu_factors, lu_factors_per_lane
+
+    J = jnp.asarray(np.random.default_rng(1).normal(size=(5, 7, 7)))
+    b = jnp.asarray(np.random.default_rng(2).normal(size=(5, 7)))
+    lu1, p1 = jax.vmap(lu_factors)(J)
+    lu2, p2 = jax.jit(jax.vmap(lu_factors_per_lane))(J)
+    np.testing.assert_array_equal(lu1, lu2)
+    np.testing.assert_array_equal(p1, p2)
+    x = jax.vmap(lu_apply)((lu2, p2), b)
+    np.testing.assert_allclose(jnp.einsum("bij,bj->bi", J, x), b, atol=1e-12)
+    lu3, _ = lu_factors_per_lane(J[0])  # unbatched: the plain factors
+    np.testing.assert_array_equal(lu3, lu1[0])

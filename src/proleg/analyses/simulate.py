@@ -145,6 +145,7 @@ def simulate(
     chunk: int = 256,
     on_chunk=None,
     free_running: bool = False,
+    lu_per_lane: bool = False,
 ) -> Result:
     """Integrate ``system`` from ``t0`` to ``t_end``; outputs every ``dt_output`` (or at ``output_times``).
 
@@ -164,6 +165,9 @@ def simulate(
     free_running : under ``jax.vmap``, let each variant step through all its output times
         without waiting for the others at each one (solvers/driver.py ``advance``; what
         :func:`proleg.sweep` uses); the same results, ~2× fewer batch iterations
+    lu_per_lane : under ``jax.vmap``, one LAPACK LU call per variant instead of jaxlib's batched
+        LU, which can deadlock when two batches run at once in threads
+        (:class:`proleg.solvers.galpha.StepOptions`; :func:`proleg.sweep` sets it for its workers)
     jacobian_refresh : accepted for compatibility; ``False`` forces a fresh matrix every step
         (the default already builds one per step)
     coordinates : "auto" (default), "absolute" or "planar" — the coordinates the integrator
@@ -194,7 +198,7 @@ def simulate(
     dopts = DriverOptions(
         step=StepOptions(
             rtol=rtol, atol=atol, atol_p=atol if atol_p is None else atol_p, max_newton=max_newton,
-            jacobian_reuse=bool(jacobian_reuse and jacobian_refresh),
+            jacobian_reuse=bool(jacobian_reuse and jacobian_refresh), lu_per_lane=bool(lu_per_lane),
         ),
         dt_min=dt_min,
         dt_max=float(dt_max if dt_max is not None else min(dt_out, 1e-2)),

@@ -9,7 +9,9 @@ a long pandas table with the swept values beside each variant's outputs.
 Speed on the CPU. The batch is compiled without XLA-CPU's YNNPACK fusions: under ``vmap`` the
 small 3×3 products of the element code become batched dots that YNNPACK runs lane by lane
 (1–2 ms per fusion for 1,000 lanes); the plain XLA loops are ~3× faster per lane-step on the
-bench model (bench/vmap_batch.py). Each variant steps through its output times on its own
+bench model (bench/vmap_batch.py). Batches run concurrently, one per core (``workers``),
+each factoring its Newton matrices lane by lane (jaxlib's batched LU deadlocks two concurrent
+batches: solvers/galpha.py ``StepOptions.lu_per_lane``). Each variant steps through its output times on its own
 (``simulate(free_running=True)``), but the batch's loop runs until the slowest variant is done:
 variants with very different step counts waste work, so group them.
 On a GPU the same call runs every variant in parallel (bench/gpu_batch.py).
@@ -28,8 +30,25 @@ from ..errors import ModelError, Status
 from .result import Result
 from .simulate import simulate
 
+# Default largest batch on the CPU: per lane-step, 1,000 lanes cost 18 µs, 500 13 µs, and two
+# workers ran 1,000 variants 15 % faster in batches of 250 than of 500 (bench/vmap_batch.py).
+CPU_BATCH_CAP = 256
+
 # Options for the batch's XLA compilation on the CPU (module docstring).
 _CPU_BATCH_OPTIONS = {"xla_cpu_experimental_ynn_fusion_type": ""}
+
+
+def default_workers() -> int:
+    """Concurrent batches for :func:`sweep`: on the CPU the cores this process may use (its
+    affinity mask where the OS has one), elsewhere 1 (a GPU runs one batch at a time)."""
+    import os
+
+    if jax.default_backend() != "cpu":
+        return 1
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not Linux
+        return max(1, os.cpu_count() or 1)
 
 
 def batch_compiler_options() -> dict:
@@ -129,28 +148,45 @@ def _values(system: System, params: dict) -> tuple[dict, int]:
     return out, n
 
 
-def sweep(system: System, params: dict, t_end: float, dt_output: float | None = None, *, batch_size: int | None = None, **simulate_kw) -> SweepResult:
+def sweep(
+    system: System, params: dict, t_end: float, dt_output: float | None = None, *, batch_size: int | None = None,
+    workers: int | None = None, **simulate_kw,
+) -> SweepResult:
     """Simulate one variant of ``system`` per row of ``params`` ({name: values}, the names of
     ``system.with_params``, each with one value per variant), all in one compiled ``jax.vmap``
     batch. ``batch_size`` splits a long sweep into batches of that many variants (one
-    compilation: the last batch is padded). Other keywords go to :func:`proleg.simulate`
-    (tolerances, ``fixed_step``, ``coordinates``, ...). A variant that fails is reported in
-    ``status`` with the time it stopped; the others are unaffected.
+    compilation: the last batch is padded). ``workers`` batches run at the same time, each in
+    its own thread (default: on the CPU, one per core this process may use; elsewhere 1); with
+    ``batch_size`` unset the variants are split into ``workers`` equal batches, on the CPU of
+    at most ``CPU_BATCH_CAP`` (256) variants each. Other keywords
+    go to :func:`proleg.simulate` (tolerances, ``fixed_step``, ``coordinates``, ...). A variant
+    that fails is reported in ``status`` with the time it stopped; the others are unaffected.
     """
     import time
+    from concurrent.futures import ThreadPoolExecutor
 
     values, n = _values(system, params)
+    workers = default_workers() if workers is None else workers
+    if not isinstance(workers, int) or isinstance(workers, bool) or workers < 1:
+        raise ValueError(f"sweep: workers must be a positive integer (got {workers!r}).")
     for k in ("progress", "throw", "on_chunk"):
         if k in simulate_kw:
             raise TypeError(f"sweep: '{k}' is not available in a sweep (variants run together).")
     names = list(values)
-    bs = n if batch_size is None else max(1, min(int(batch_size), n))
+    if batch_size is None:
+        bs = math.ceil(n / min(workers, n))
+        if jax.default_backend() == "cpu":
+            bs = min(bs, CPU_BATCH_CAP)
+    else:
+        bs = max(1, min(int(batch_size), n))
+    n_batches = math.ceil(n / bs)
+    concurrent = workers > 1 and n_batches > 1
     meta = {}
 
     def one(vals):
         res = simulate(
             system.with_params(dict(zip(names, vals))), t_end, dt_output, progress=False, throw=False,
-            chunk=1_000_000, free_running=True, **simulate_kw,
+            chunk=1_000_000, free_running=True, lu_per_lane=concurrent, **simulate_kw,
         )
         meta["t"], meta["integrator"], meta["coordinates"] = res.t, res.integrator, res.coordinates
         return (res.q, res.v, res.w, res.z, *res.traced_status)
@@ -159,13 +195,23 @@ def sweep(system: System, params: dict, t_end: float, dt_output: float | None = 
     first = [jnp.asarray(values[k][:bs]) for k in names]
     fn = jax.jit(jax.vmap(one)).lower(first).compile(compiler_options=batch_compiler_options() or None)
     t_compile = time.perf_counter() - t0
-    parts = []
-    t0 = time.perf_counter()
-    for b in range(math.ceil(n / bs)):
+
+    def run(b):
         lo, hi = b * bs, min((b + 1) * bs, n)
         chunk = [np.concatenate([values[k][lo:hi], np.repeat(values[k][hi - 1 : hi], bs - (hi - lo), 0)]) for k in names]
         out = jax.block_until_ready(fn([jnp.asarray(c) for c in chunk]))
-        parts.append([np.asarray(o)[: hi - lo] for o in out])
+        return [np.asarray(o)[: hi - lo] for o in out]
+
+    t0 = time.perf_counter()
+    if concurrent:
+        # XLA releases the GIL while a batch runs, and with proleg's scheduler setting each
+        # batch keeps to one core: concurrent batches use the others (bench/vmap_batch.py).
+        # Their Newton matrices are factored lane by lane (``lu_per_lane``): jaxlib's batched
+        # LU waits on the shared thread pool and deadlocks two concurrent batches.
+        with ThreadPoolExecutor(min(workers, n_batches)) as pool:
+            parts = list(pool.map(run, range(n_batches)))
+    else:
+        parts = [run(b) for b in range(n_batches)]
     wall = time.perf_counter() - t0
     q, v, w, z, status, ft, stats = (np.concatenate(p, 0) for p in zip(*parts))
     res = SweepResult(system, values, meta["t"], q, v, w, z, status, ft, stats, meta["integrator"], meta["coordinates"])

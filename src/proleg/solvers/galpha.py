@@ -119,6 +119,12 @@ class StepOptions:
     jacobian_reuse: bool = False
     jacobian_h_ratio: float = 3.0  # rebuild when h / h_built leaves [1/r, r]
     reuse_max_iterations: int = 4  # a step that needed more rebuilds the matrix for the next
+    # Under jax.vmap: factor each lane's Newton matrix with its own LAPACK call (a loop over the
+    # lanes) instead of jaxlib's batched LU. The batched LU spreads its lanes over XLA's
+    # intra-op thread pool and waits for them there; two batches running at once from two
+    # threads then each hold a pool thread and wait for the other: a deadlock (jaxlib 0.10,
+    # 2-core VM, 500 lanes). ``sweep`` sets it when it runs batches concurrently.
+    lu_per_lane: bool = False
 
 
 def _weights(dyn, q, opts: StepOptions):
@@ -141,6 +147,20 @@ def lu_factors(J):
     L = jnp.tril(lu, -1) + jnp.eye(n, dtype=J.dtype)
     perm = jnp.round(L @ lu_aug[:, n]).astype(jnp.int32)
     return lu, perm
+
+
+@jax.custom_batching.custom_vmap
+def lu_factors_per_lane(J):
+    """:func:`lu_factors`; under ``jax.vmap`` one LAPACK call per lane (``StepOptions.lu_per_lane``)."""
+    return lu_factors(J)
+
+
+@lu_factors_per_lane.def_vmap
+def _lu_factors_per_lane_vmap(axis_size, in_batched, J):
+    (batched,) = in_batched
+    if not batched:
+        return lu_factors(J), (False, False)
+    return jax.lax.map(lu_factors_per_lane, J), (True, True)
 
 
 def lu_apply(fac, b):
@@ -231,7 +251,7 @@ def step(dyn, integrator, st: StepState, h, opts: StepOptions):
         # The Newton matrix only steers the iteration: no derivative through it (forward-mode
         # sensitivities converge with the iteration itself), so no tangents are carried into it.
         args = jax.lax.stop_gradient((dyn, q1, v1, t1, z, bp, cv))
-        return lu_factors(iteration_matrix(*args, mfac))
+        return (lu_factors_per_lane if opts.lu_per_lane else lu_factors)(iteration_matrix(*args, mfac))
 
     # Predictor.
     a_star = (st.qdd - am * a_n) / (1 - am)
