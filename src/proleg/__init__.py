@@ -49,26 +49,38 @@ def _jaxlib_has_option(name: str) -> bool:
     return False
 
 
-def _xla_cpu_defaults():
-    """Turn off XLA-CPU's concurrency-optimized scheduler (XLA_FLAGS) before JAX starts its backend.
+# XLA-CPU options proleg sets in XLA_FLAGS (see _xla_cpu_defaults), as name: value.
+XLA_CPU_DEFAULTS = {
+    # The concurrency-optimized scheduler lets independent kernels run on the thread pool; a
+    # simulation step is a few hundred microsecond-sized kernels, and the thread hand-offs cost
+    # more than they save: on a 2-core VM, 7-link chain 122 → 85 µs/step, 7-link bushing chain
+    # 329 → 189, with half the CPU time (bench/README.md).
+    "xla_cpu_enable_concurrency_optimized_scheduler": "false",
+    # YNNPACK fusions run the element code's small batched products (one batch entry per
+    # colour of the Newton matrix's JVPs, or per vmap lane) entry by entry: on the 7-link
+    # bushing chain (21 colours) they were ~100 µs of a ~200 µs step; without them, A/B in one
+    # process, 196 → 143 µs/step fastest (208 → 161 median), the planar 7-link chain 59 → 54,
+    # the 2-link model unchanged; a 1,000-lane vmap batch 50 → 16 µs per lane-step.
+    "xla_cpu_experimental_ynn_fusion_type": "",
+}
 
-    That scheduler lets independent kernels run on the thread pool; a simulation step is a few
-    hundred microsecond-sized kernels, and the thread hand-offs cost more than they save:
-    measured on a 2-core VM, 7-link chain 122 → 85 µs/step, 7-link bushing chain 329 → 189, with
-    half the CPU time (bench/README.md). A 1,000-lane vmap batch was 15 % slower with it off.
-    Left alone when XLA_FLAGS already names the option (set it to true to keep the scheduler),
-    when PROLEG_XLA_DEFAULTS=0, or when this jaxlib does not have the option.
+
+def _xla_cpu_defaults():
+    """Set XLA_CPU_DEFAULTS in XLA_FLAGS before JAX starts its backend.
+
+    Each option is left alone when XLA_FLAGS already names it (set it yourself to keep XLA's
+    default), when this jaxlib does not have it, and all of them when PROLEG_XLA_DEFAULTS=0.
     The flags are read when JAX's backend starts: importing proleg after running JAX code has
     no effect.
     """
     import os
 
-    name = "xla_cpu_enable_concurrency_optimized_scheduler"
-    flags = os.environ.get("XLA_FLAGS", "")
-    if os.environ.get("PROLEG_XLA_DEFAULTS", "1") == "0" or name in flags:
+    if os.environ.get("PROLEG_XLA_DEFAULTS", "1") == "0":
         return
-    if _jaxlib_has_option(name):
-        os.environ["XLA_FLAGS"] = f"{flags} --{name}=false".strip()
+    for name, value in XLA_CPU_DEFAULTS.items():
+        flags = os.environ.get("XLA_FLAGS", "")
+        if name not in flags and _jaxlib_has_option(name):
+            os.environ["XLA_FLAGS"] = f"{flags} --{name}={value}".strip()
 
 
 _xla_cpu_defaults()
