@@ -17,8 +17,8 @@ final position of link 2.
   linearly to the batch size. Also a jitted single-variant function called sequentially, the
   fastest one-at-a-time loop.
 
-* ``proleg.sweep``: the same variants through the library's sweep (analyses/sweep.py): compiled
-  with the CPU batch options (no YNNPACK fusions) and the free-running driver, in batches of
+* ``proleg.sweep``: the same variants through the library's sweep (analyses/sweep.py): the
+  free-running driver, in batches of
   at most 256 run concurrently, one per core (``workers``).
 
 Target: the vmap batch of 1,000 at >= 20x the throughput of 1,000 sequential runs.
@@ -161,7 +161,7 @@ def main(argv=None):
                 "case": "proleg.sweep(system, {k: ks})", "variants": args.batch, "timed": args.batch,
                 "compile [s]": sw.compile_time, "wall [s]": sw.wall_time, "per variant [ms]": 1e3 * sw.wall_time / args.batch,
                 "variants/s": args.batch / sw.wall_time, "speed-up": per_seq * args.batch / sw.wall_time,
-                "note": f"max |sweep - sequential| final position {dev:.2g} m; compiler options {pl.analyses.sweep.batch_compiler_options()}; "
+                "note": f"max |sweep - sequential| final position {dev:.2g} m; "
                 f"{pl.analyses.sweep.default_workers()} workers (concurrent batches of <= {pl.analyses.sweep.CPU_BATCH_CAP} on the CPU); "
                 f"steps per variant {int(np.min(sw.stats['steps']))}..{int(np.max(sw.stats['steps']))}",
             })

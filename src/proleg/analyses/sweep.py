@@ -6,10 +6,10 @@ model's structure is shared, so there is one compilation) and returns a :class:`
 ordinary :class:`~proleg.analyses.result.Result` (every output accessor), and ``res.to_frame()``
 a long pandas table with the swept values beside each variant's outputs.
 
-Speed on the CPU. The batch is compiled without XLA-CPU's YNNPACK fusions: under ``vmap`` the
-small 3×3 products of the element code become batched dots that YNNPACK runs lane by lane
-(1–2 ms per fusion for 1,000 lanes); the plain XLA loops are ~3× faster per lane-step on the
-bench model (bench/vmap_batch.py). Batches run concurrently, one per core (``workers``),
+Speed on the CPU. proleg turns XLA-CPU's YNNPACK fusions off at import
+(``proleg.XLA_CPU_DEFAULTS``): under ``vmap`` the small 3×3 products of the element code become
+batched dots that YNNPACK runs lane by lane (1–2 ms per fusion for 1,000 lanes); the plain XLA
+loops are ~3× faster per lane-step on the bench model (bench/vmap_batch.py). Batches run concurrently, one per core (``workers``),
 each factoring its Newton matrices lane by lane (jaxlib's batched LU deadlocks two concurrent
 batches: solvers/galpha.py ``StepOptions.lu_per_lane``). Each variant steps through its output times on its own
 (``simulate(free_running=True)``), but the batch's loop runs until the slowest variant is done:
@@ -34,10 +34,6 @@ from .simulate import simulate
 # workers ran 1,000 variants 15 % faster in batches of 250 than of 500 (bench/vmap_batch.py).
 CPU_BATCH_CAP = 256
 
-# Options for the batch's XLA compilation on the CPU (module docstring).
-_CPU_BATCH_OPTIONS = {"xla_cpu_experimental_ynn_fusion_type": ""}
-
-
 def default_workers() -> int:
     """Concurrent batches for :func:`sweep`: on the CPU the cores this process may use (its
     affinity mask where the OS has one), elsewhere 1 (a GPU runs one batch at a time)."""
@@ -50,14 +46,6 @@ def default_workers() -> int:
     except AttributeError:  # not Linux
         return max(1, os.cpu_count() or 1)
 
-
-def batch_compiler_options() -> dict:
-    """XLA compiler options for a vmapped batch on this backend (empty where none apply)."""
-    from .. import _jaxlib_has_option
-
-    if jax.default_backend() != "cpu":
-        return {}
-    return {k: v for k, v in _CPU_BATCH_OPTIONS.items() if _jaxlib_has_option(k)}
 
 
 class SweepResult:
@@ -193,7 +181,7 @@ def sweep(
 
     t0 = time.perf_counter()
     first = [jnp.asarray(values[k][:bs]) for k in names]
-    fn = jax.jit(jax.vmap(one)).lower(first).compile(compiler_options=batch_compiler_options() or None)
+    fn = jax.jit(jax.vmap(one)).lower(first).compile()
     t_compile = time.perf_counter() - t0
 
     def run(b):
