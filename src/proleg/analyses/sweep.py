@@ -9,9 +9,10 @@ a long pandas table with the swept values beside each variant's outputs.
 Speed on the CPU. proleg turns XLA-CPU's YNNPACK fusions off at import
 (``proleg.XLA_CPU_DEFAULTS``): under ``vmap`` the small 3×3 products of the element code become
 batched dots that YNNPACK runs lane by lane (1–2 ms per fusion for 1,000 lanes); the plain XLA
-loops are ~3× faster per lane-step on the bench model (bench/vmap_batch.py). Batches run concurrently, one per core (``workers``),
-each factoring its Newton matrices lane by lane (jaxlib's batched LU deadlocks two concurrent
-batches: solvers/galpha.py ``StepOptions.lu_per_lane``). Each variant steps through its output times on its own
+loops are ~3× faster per lane-step on the bench model (bench/vmap_batch.py). Batches run
+concurrently, one per core (``workers``), each factoring its Newton matrices lane by lane
+(jaxlib's batched LU deadlocks two concurrent batches: solvers/galpha.py
+``StepOptions.lu_per_lane``). Each variant steps through its output times on its own
 (``simulate(free_running=True)``), but the batch's loop runs until the slowest variant is done:
 variants with very different step counts waste work, so group them.
 On a GPU the same call runs every variant in parallel (bench/gpu_batch.py).
@@ -34,6 +35,7 @@ from .simulate import simulate
 # workers ran 1,000 variants 15 % faster in batches of 250 than of 500 (bench/vmap_batch.py).
 CPU_BATCH_CAP = 256
 
+
 def default_workers() -> int:
     """Concurrent batches for :func:`sweep`: on the CPU the cores this process may use (its
     affinity mask where the OS has one), elsewhere 1 (a GPU runs one batch at a time)."""
@@ -45,7 +47,6 @@ def default_workers() -> int:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # not Linux
         return max(1, os.cpu_count() or 1)
-
 
 
 class SweepResult:
@@ -146,9 +147,9 @@ def sweep(
     compilation: the last batch is padded). ``workers`` batches run at the same time, each in
     its own thread (default: on the CPU, one per core this process may use; elsewhere 1); with
     ``batch_size`` unset the variants are split into ``workers`` equal batches, on the CPU of
-    at most ``CPU_BATCH_CAP`` (256) variants each. Other keywords
-    go to :func:`proleg.simulate` (tolerances, ``fixed_step``, ``coordinates``, ...). A variant
-    that fails is reported in ``status`` with the time it stopped; the others are unaffected.
+    at most ``CPU_BATCH_CAP`` (256) variants each. Other keywords go to :func:`proleg.simulate`
+    (tolerances, ``fixed_step``, ``coordinates``, ...). A variant that fails is reported in
+    ``status`` with the time it stopped; the others are unaffected.
     """
     import time
     from concurrent.futures import ThreadPoolExecutor
