@@ -18,8 +18,7 @@ final position of link 2.
   fastest one-at-a-time loop.
 
 * ``proleg.sweep``: the same variants through the library's sweep (analyses/sweep.py): the
-  free-running driver, in batches of
-  at most 256 run concurrently, one per core (``workers``).
+  free-running driver, in batches of at most 256 run concurrently, one per core (``workers``).
 
 Target: the vmap batch of 1,000 at >= 20x the throughput of 1,000 sequential runs.
 """
