@@ -5,21 +5,23 @@ loops, damping from a drop test, the battery model, and statistics over repetiti
 Student-t intervals. Files are read and checked by :mod:`proleg.identify.data`.
 """
 
-from .classical import BatteryFit as BatteryFit
 from .classical import Cycle as Cycle
-from .classical import DropResult as DropResult
 from .classical import HysteresisResult as HysteresisResult
 from .classical import LineFit as LineFit
 from .classical import coulomb_fit as coulomb_fit
 from .classical import detect_cycles as detect_cycles
-from .classical import drop_damping as drop_damping
-from .classical import fit_battery as fit_battery
 from .classical import identify_hysteresis as identify_hysteresis
 from .classical import loop_energy as loop_energy
 from .classical import loops_table as loops_table
-from .classical import plot_battery as plot_battery
 from .classical import plot_hysteresis as plot_hysteresis
 from .classical import stiffness_rms as stiffness_rms
+# battery and drop import shared helpers from classical (which re-exports them at its end):
+# keep classical first.
+from .battery import BatteryFit as BatteryFit
+from .battery import fit_battery as fit_battery
+from .battery import plot_battery as plot_battery
+from .drop import DropResult as DropResult
+from .drop import drop_damping as drop_damping
 from .data import Record as Record
 from .data import load_record as load_record
 from .data import parse_units as parse_units

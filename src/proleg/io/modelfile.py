@@ -35,6 +35,10 @@ joints, forces, so a force may name the markers a joint creates (``<joint>.I``, 
 Every problem — YAML syntax, unknown or missing field, wrong type or shape, unknown name,
 or an inconsistency found by the builders — raises :class:`~proleg.errors.ModelError` with the
 file, the line, the element (``joints[1] 'elbow'``), the field and how to fix it.
+
+This module reads (YAML, error locations, building); the schema is in :mod:`proleg.io.modelspec`
+and the writer (:func:`model_to_dict`, :func:`dump_model`) in :mod:`proleg.io.modelwrite`. All
+their names are importable from here too.
 """
 
 from __future__ import annotations
@@ -42,246 +46,67 @@ from __future__ import annotations
 import difflib
 import re
 from pathlib import Path
-from typing import Annotated, Any, Literal
 
-import numpy as np
 import yaml
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
+from pydantic import ValidationError
 
 from ..errors import ModelError
 from ..model import forces as _f
-from ..model import joints as _j
 from ..model.model import Model
-from ..model.parts import Part
+
+# The schema (pydantic) and the writer live in their own modules; every name is imported back so
+# that what was importable from this module still is.
+from .modelspec import (  # noqa: F401
+    _FORCE_SPECS,
+    _JOINT_CLASSES,
+    _JOINT_SPECS,
+    SECTIONS,
+    Axis,
+    BushingSpec,
+    CylindricalSpec,
+    FixedSpec,
+    ForceElementSpec,
+    ForceSpec,
+    Inertia,
+    JointSpec,
+    MarkerSpec,
+    ModelFile,
+    Orientation,
+    PartSpec,
+    PlanarSpec,
+    PrismaticSpec,
+    RevoluteSpec,
+    RotationalSpringDamperSpec,
+    ScrewSpec,
+    SimulateSpec,
+    Six,
+    SphericalSpec,
+    SpringDamperSpec,
+    TorqueSpec,
+    UniversalSpec,
+    Vec3,
+    Vec6,
+    _array_type,
+    _AxisJointSpec,
+    _JointSpec,
+    _Spec,
+)
+from .modelwrite import (  # noqa: F401
+    _clean,
+    _Dumper,
+    _end_name,
+    _Flow,
+    _flowify,
+    _FlowMap,
+    _force_to_dict,
+    _is_identity,
+    _six_out,
+    _vec,
+    dump_model,
+    model_to_dict,
+)
 
 __all__ = ["load_model", "load_model_file", "model_from_dict", "model_to_dict", "dump_model"]
-
-SECTIONS = ("parts", "markers", "joints", "forces")
-
-
-# ------------------------------------------------------------------------------------------
-# Schema
-# ------------------------------------------------------------------------------------------
-def _array_type(*shapes: tuple[int, ...], what: str):
-    """A numeric array field of one of ``shapes``, kept as nested lists of float."""
-    exp = " or ".join("a " + "x".join(map(str, s)) + (" list" if len(s) > 1 else "-list") for s in shapes)
-
-    def check(value):
-        if isinstance(value, str | bytes | dict) or np.ndim(value) == 0:
-            raise ValueError(f"expected {exp} of numbers ({what}), got {value!r}")
-        try:
-            arr = np.asarray(value, dtype=float)
-        except (TypeError, ValueError):
-            raise ValueError(f"expected {exp} of numbers ({what}), got {value!r}") from None
-        if arr.shape not in shapes:
-            raise ValueError(f"expected {exp} ({what}), got shape {arr.shape}: {value!r}")
-        if not np.all(np.isfinite(arr)):
-            raise ValueError(f"contains NaN or inf: {value!r}; give finite numbers ({what})")
-        return arr.tolist()
-
-    return Annotated[Any, BeforeValidator(check)]
-
-
-Vec3 = _array_type((3,), what="[x, y, z] in ground coordinates")
-Axis = _array_type((3,), what="a direction [ax, ay, az] in ground coordinates")
-Inertia = _array_type((3,), (3, 3), what="[Ixx, Iyy, Izz] or a 3x3 tensor [kg m^2] about the COM in part axes")
-Orientation = _array_type((3, 3), (4,), what="a 3x3 rotation matrix or a unit quaternion [e0, e1, e2, e3]")
-Six = _array_type((6,), (6, 6), what="a 6-list (diagonal) or a 6x6 matrix [translations x3, rotations x3]")
-Vec6 = _array_type((6,), what="[x, y, z, rx, ry, rz]")
-
-
-class _Spec(BaseModel):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, str_strip_whitespace=True)
-
-
-class PartSpec(_Spec):
-    """``Model.add_part``: a rigid body."""
-
-    name: str = Field(description="part name, unique")
-    mass: float = Field(gt=0, description="[kg], > 0")
-    inertia: Inertia = Field(description="[Ixx, Iyy, Izz] or 3x3 [kg m^2], about the COM in part axes")
-    position: Vec3 = Field(description="COM position [m] in ground")
-    orientation: Orientation | None = Field(None, description="3x3 rotation matrix or unit quaternion (scalar first)")
-    velocity: Vec3 | None = Field(None, description="initial COM velocity [m/s] in ground")
-    angular_velocity: Vec3 | None = Field(None, description="initial angular velocity [rad/s] in ground")
-
-
-class MarkerSpec(_Spec):
-    """``Model.add_marker``: a frame fixed to a part, given at its ground pose."""
-
-    name: str = Field(description="marker name, unique")
-    part: str = Field(description="name of the part carrying the marker (or ground)")
-    position: Vec3 = Field(description="[m] in ground at the modelled pose")
-    orientation: Orientation | None = Field(None, description="3x3 rotation matrix or unit quaternion, ground frame")
-
-
-class _JointSpec(_Spec):
-    name: str = Field(description="joint name, unique")
-    i: str = Field(description="first part (with at) or marker I (without at)")
-    j: str = Field(description="second part (with at) or marker J (without at)")
-    at: Vec3 | None = Field(None, description="joint origin [m] in ground; needed when connecting parts")
-
-
-class _AxisJointSpec(_JointSpec):
-    axis: Axis | None = Field(None, description="joint axis in ground coordinates")
-
-
-class RevoluteSpec(_AxisJointSpec):
-    type: Literal["revolute"]
-
-
-class PrismaticSpec(_AxisJointSpec):
-    type: Literal["prismatic", "translational"]
-
-
-class CylindricalSpec(_AxisJointSpec):
-    type: Literal["cylindrical"]
-
-
-class ScrewSpec(_AxisJointSpec):
-    type: Literal["screw"]
-    pitch: float = Field(description="[m/rev], non-zero")
-
-
-class PlanarSpec(_AxisJointSpec):
-    type: Literal["planar"]
-
-
-class SphericalSpec(_AxisJointSpec):
-    type: Literal["spherical"]
-
-
-class FixedSpec(_AxisJointSpec):
-    type: Literal["fixed"]
-
-
-class UniversalSpec(_JointSpec):
-    type: Literal["universal"]
-    axis_i: Axis | None = Field(None, description="cross-pin axis fixed in the first part, ground coordinates")
-    axis_j: Axis | None = Field(None, description="cross-pin axis fixed in the second part, ground coordinates")
-
-
-JointSpec = Annotated[
-    RevoluteSpec
-    | PrismaticSpec
-    | CylindricalSpec
-    | ScrewSpec
-    | PlanarSpec
-    | SphericalSpec
-    | FixedSpec
-    | UniversalSpec,
-    Field(discriminator="type"),
-]
-
-
-class SpringDamperSpec(_Spec):
-    type: Literal["spring_damper"]
-    name: str = Field(description="force element name, unique")
-    i: str = Field(description="marker I (the force acts on I)")
-    j: str = Field(description="marker J (the reaction acts on J)")
-    stiffness: float = Field(0.0, ge=0, description="[N/m], >= 0")
-    damping: float = Field(0.0, ge=0, description="[N s/m], >= 0")
-    free_length: float = Field(0.0, ge=0, description="[m], >= 0")
-    preload: float = Field(0.0, description="[N], positive pushes the markers apart")
-
-
-class RotationalSpringDamperSpec(_Spec):
-    type: Literal["rotational_spring_damper"]
-    name: str = Field(description="force element name, unique")
-    joint: str | None = Field(None, description="a revolute/cylindrical joint name (instead of i and j)")
-    i: str | None = Field(None, description="marker I (instead of joint)")
-    j: str | None = Field(None, description="marker J (instead of joint)")
-    stiffness: float = Field(0.0, ge=0, description="[N m/rad], >= 0")
-    damping: float = Field(0.0, ge=0, description="[N m s/rad], >= 0")
-    free_angle: float = Field(0.0, description="[rad]")
-    preload: float = Field(0.0, description="[N m]")
-
-
-class BushingSpec(_Spec):
-    type: Literal["bushing"]
-    name: str = Field(description="force element name, unique")
-    i: str = Field(description="marker I (the force acts on I)")
-    j: str = Field(description="marker J (the reaction acts on J)")
-    stiffness: Six = Field(description="6-list or 6x6 [N/m x3, N m/rad x3]")
-    damping: Six | None = Field(None, description="6-list or 6x6 [N s/m x3, N m s/rad x3]")
-    preload: Vec6 | None = Field(None, description="6-list [N x3, N m x3]")
-    free: Vec6 | None = Field(None, description="6-list [m x3, rad x3]")
-
-
-class ForceSpec(_Spec):
-    type: Literal["force"]
-    name: str = Field(description="force element name, unique")
-    part: str = Field(description="part (or marker) the force acts on")
-    value: Vec3 = Field(description="constant force [N] in ground components")
-    at: Vec3 | None = Field(None, description="application point [m] in ground; default the COM")
-
-
-class TorqueSpec(_Spec):
-    type: Literal["torque"]
-    name: str = Field(description="force element name, unique")
-    part: str = Field(description="part (or marker) the torque acts on")
-    value: Vec3 = Field(description="constant torque [N m] in ground components")
-    at: Vec3 | None = Field(None, description="application point [m] in ground (irrelevant for a pure torque)")
-
-
-ForceElementSpec = Annotated[
-    SpringDamperSpec | RotationalSpringDamperSpec | BushingSpec | ForceSpec | TorqueSpec,
-    Field(discriminator="type"),
-]
-
-
-class SimulateSpec(_Spec):
-    """Optional defaults for ``proleg simulate`` (the CLI); the Python API ignores them."""
-
-    t_end: float | None = Field(None, gt=0, description="end time [s], > 0")
-    dt_output: float | None = Field(None, gt=0, description="output interval [s], > 0")
-    dt_max: float | None = Field(None, gt=0, description="largest integration step [s], > 0")
-    rtol: float | None = Field(None, gt=0, description="relative error tolerance, > 0")
-    atol: float | None = Field(None, gt=0, description="absolute error tolerance, > 0")
-
-
-class ModelFile(_Spec):
-    """The whole file."""
-
-    name: str = Field("model", description="model name")
-    gravity: Vec3 = Field([0.0, 0.0, -9.81], description="[m/s^2] in ground")
-    units: Literal["SI"] = Field("SI", description="only SI (m, kg, s, N, rad) for now")
-    parts: list[PartSpec] = Field(default_factory=list, description="rigid bodies")
-    markers: list[MarkerSpec] = Field(default_factory=list, description="frames on parts")
-    joints: list[JointSpec] = Field(default_factory=list, description="joints")
-    forces: list[ForceElementSpec] = Field(default_factory=list, description="force elements")
-    simulate: SimulateSpec | None = Field(None, description="defaults for the CLI")
-
-
-_JOINT_SPECS = {
-    "revolute": RevoluteSpec,
-    "prismatic": PrismaticSpec,
-    "translational": PrismaticSpec,
-    "cylindrical": CylindricalSpec,
-    "screw": ScrewSpec,
-    "planar": PlanarSpec,
-    "spherical": SphericalSpec,
-    "fixed": FixedSpec,
-    "universal": UniversalSpec,
-}
-_FORCE_SPECS = {
-    "spring_damper": SpringDamperSpec,
-    "rotational_spring_damper": RotationalSpringDamperSpec,
-    "bushing": BushingSpec,
-    "force": ForceSpec,
-    "torque": TorqueSpec,
-}
-_JOINT_CLASSES = {
-    "revolute": _j.Revolute,
-    "prismatic": _j.Prismatic,
-    "translational": _j.Prismatic,
-    "cylindrical": _j.Cylindrical,
-    "screw": _j.Screw,
-    "planar": _j.Planar,
-    "spherical": _j.Spherical,
-    "fixed": _j.Fixed,
-    "universal": _j.Universal,
-}
 
 
 # ------------------------------------------------------------------------------------------
@@ -662,177 +487,3 @@ def load_model_file(path) -> tuple[Model, dict]:
 def load_model(path) -> Model:
     """Read a YAML model file and return the :class:`Model` (see :func:`load_model_file`)."""
     return load_model_file(path)[0]
-
-
-# ------------------------------------------------------------------------------------------
-# Writing
-# ------------------------------------------------------------------------------------------
-def _vec(a) -> list:
-    return np.asarray(a, dtype=float).tolist()
-
-
-def _clean(a) -> list:
-    """A derived pose (marker stored relative to its part) with round-off noise dropped (15 digits)."""
-    return [float(f"{x:.15g}") for x in np.ravel(a)] if np.ndim(a) == 1 else [_clean(r) for r in a]
-
-
-def _is_identity(R) -> bool:
-    return bool(np.allclose(R, np.eye(3), rtol=0, atol=1e-12))
-
-
-def _six_out(M):
-    M = np.asarray(M, dtype=float)
-    return _vec(np.diag(M)) if np.array_equal(M, np.diag(np.diag(M))) else _vec(M)
-
-
-def _end_name(obj) -> str:
-    return obj.name  # Part or Marker, both named; ground is "ground"
-
-
-def model_to_dict(model: Model, simulate: dict | None = None) -> dict:
-    """The model-file dict of ``model`` (the inverse of :func:`model_from_dict`).
-
-    Markers created by joints and forces are left out (they are re-created on load); joint
-    ends keep the form they were given in (parts with ``at``/``axis``, or markers).
-    """
-    for what in ("contacts", "motions", "controllers"):
-        if getattr(model, what, None):
-            raise ModelError(f"Model '{model.name}' has {what}; the model-file format does not cover them yet.")
-    auto: set[int] = set()
-    for jt in model.joints:
-        if isinstance(jt.i_in, Part):
-            auto.add(id(jt.marker_i))
-        if isinstance(jt.j_in, Part):
-            auto.add(id(jt.marker_j))
-    for fe in model.forces:
-        if isinstance(fe, _f.Force | _f.Torque) and fe.marker_in is None and fe.marker is not None:
-            auto.add(id(fe.marker))
-
-    out: dict[str, Any] = {"name": model.name, "gravity": _vec(model.gravity), "units": "SI"}
-    parts = []
-    for p in model.parts:
-        J = np.asarray(p.inertia)
-        d = {
-            "name": p.name,
-            "mass": float(p.mass),
-            "inertia": _vec(np.diag(J)) if np.array_equal(J, np.diag(np.diag(J))) else _vec(J),
-            "position": _vec(p.position),
-        }
-        if not _is_identity(p.orientation):
-            d["orientation"] = _vec(p.orientation)
-        if np.any(p.velocity):
-            d["velocity"] = _vec(p.velocity)
-        if np.any(p.angular_velocity):
-            d["angular_velocity"] = _vec(p.angular_velocity)
-        parts.append(d)
-    markers = []
-    for m in model.markers:
-        if id(m) in auto:
-            continue
-        d = {"name": m.name, "part": m.part.name, "position": _clean(m.position)}
-        if not _is_identity(m.orientation):
-            d["orientation"] = _clean(m.orientation)
-        markers.append(d)
-    joints = []
-    for jt in model.joints:
-        d = {"type": jt.kind, "name": jt.name, "i": _end_name(jt.i_in), "j": _end_name(jt.j_in)}
-        if jt.at is not None:
-            d["at"] = _vec(jt.at)
-        if isinstance(jt, _j.Universal):
-            for k in ("axis_i", "axis_j"):
-                if getattr(jt, k, None) is not None:
-                    d[k] = _vec(getattr(jt, k))
-        elif jt.axis is not None:
-            d["axis"] = _vec(jt.axis)
-        if isinstance(jt, _j.Screw):
-            d["pitch"] = float(jt.pitch)
-        joints.append(d)
-    forces = [_force_to_dict(fe) for fe in model.forces]
-    out.update(parts=parts, markers=markers, joints=joints, forces=forces)
-    if simulate:
-        out["simulate"] = SimulateSpec.model_validate(simulate).model_dump(exclude_none=True)
-    return out
-
-
-def _force_to_dict(fe) -> dict:
-    d: dict[str, Any] = {"type": fe.kind, "name": fe.name}
-    if isinstance(fe, _f.SpringDamper):
-        d.update(i=fe.i.name, j=fe.j.name, stiffness=fe.stiffness, damping=fe.damping, free_length=fe.free_length)
-        if fe.preload:
-            d["preload"] = fe.preload
-    elif isinstance(fe, _f.RotationalSpringDamper):
-        if fe.joint is not None:
-            d["joint"] = fe.joint if isinstance(fe.joint, str) else fe.joint.name
-        else:
-            d.update(i=fe.i.name, j=fe.j.name)
-        d.update(stiffness=fe.stiffness, damping=fe.damping, free_angle=fe.free_angle)
-        if fe.preload:
-            d["preload"] = fe.preload
-    elif isinstance(fe, _f.Bushing):
-        d.update(i=fe.i.name, j=fe.j.name, stiffness=_six_out(fe.stiffness))
-        if np.any(fe.damping):
-            d["damping"] = _six_out(fe.damping)
-        if np.any(fe.preload):
-            d["preload"] = _vec(fe.preload)
-        if np.any(fe.free):
-            d["free"] = _vec(fe.free)
-    elif isinstance(fe, _f.Force | _f.Torque):
-        if fe.fn is not None:
-            raise ModelError(
-                f"{type(fe).__name__} '{fe.name}' has a function value; a model file holds only constant "
-                "values. Give value=(x, y, z), or keep this element in Python."
-            )
-        d["part"] = fe.marker_in.name if fe.marker_in is not None else fe.part.name
-        d["value"] = _vec(fe.value)
-        if fe.at is not None:
-            d["at"] = _vec(fe.at)
-    else:
-        raise ModelError(f"Force element {fe!r} ({type(fe).__name__}) cannot be written to a model file yet.")
-    return {k: (float(v) if isinstance(v, float | np.floating) else v) for k, v in d.items()}
-
-
-class _Flow(list):
-    pass
-
-
-class _FlowMap(dict):
-    pass
-
-
-class _Dumper(yaml.SafeDumper):
-    pass
-
-
-_Dumper.add_representer(_Flow, lambda dumper, data: dumper.represent_sequence("tag:yaml.org,2002:seq", data, flow_style=True))
-_Dumper.add_representer(
-    _FlowMap, lambda dumper, data: dumper.represent_mapping("tag:yaml.org,2002:map", data.items(), flow_style=True)
-)
-
-
-def _flowify(obj):
-    if isinstance(obj, list):
-        return _Flow(_flowify(x) for x in obj)
-    if isinstance(obj, dict):
-        return _FlowMap({k: _flowify(v) for k, v in obj.items()})
-    return obj
-
-
-def dump_model(model: Model, path, simulate: dict | None = None) -> Path:
-    """Write ``model`` (and optional ``simulate`` CLI defaults) to a YAML model file; return the path.
-
-    Floats are written with ``repr`` so a load gives back the same numbers (marker poses to
-    round-off, as they are stored relative to their part).
-    """
-    d = model_to_dict(model, simulate)
-    doc: dict[str, Any] = {}
-    for k, v in d.items():
-        if k in SECTIONS:
-            doc[k] = [_flowify(item) for item in v]
-        elif isinstance(v, list | dict):
-            doc[k] = _flowify(v)
-        else:
-            doc[k] = v
-    text = yaml.dump(doc, Dumper=_Dumper, sort_keys=False, width=10_000, allow_unicode=True)
-    path = Path(path)
-    path.write_text(f"# proleg model file, SI units (m, kg, s, N, rad); written by proleg.io.dump_model\n{text}", encoding="utf-8")
-    return path
