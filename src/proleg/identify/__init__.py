@@ -15,8 +15,6 @@ from .classical import loop_energy as loop_energy
 from .classical import loops_table as loops_table
 from .classical import plot_hysteresis as plot_hysteresis
 from .classical import stiffness_rms as stiffness_rms
-# battery and drop import shared helpers from classical (which re-exports them at its end):
-# keep classical first.
 from .battery import BatteryFit as BatteryFit
 from .battery import fit_battery as fit_battery
 from .battery import plot_battery as plot_battery

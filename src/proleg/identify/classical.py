@@ -535,8 +535,16 @@ def plot_hysteresis(result: HysteresisResult, path, *, title: str | None = None)
     return path
 
 
-# --------------------------------------------------------------------------- re-exports
-# Drop test and battery moved to their own modules; they import G0, _arr and stiffness_rms from
-# this one, so they are imported back last (everything they need is defined by now).
-from .battery import BatteryFit, fit_battery, plot_battery  # noqa: E402,F401
-from .drop import DropResult, drop_damping  # noqa: E402,F401
+# --------------------------------------------------------------------------- moved names
+# The drop test and the battery model live in drop.py and battery.py, which import G0, _arr and
+# stiffness_rms from here; their names stay reachable from this module lazily (PEP 562), so no
+# import order matters.
+_MOVED = {"DropResult": "drop", "drop_damping": "drop", "BatteryFit": "battery", "fit_battery": "battery", "plot_battery": "battery"}
+
+
+def __getattr__(name: str):
+    if name in _MOVED:
+        import importlib
+
+        return getattr(importlib.import_module(f".{_MOVED[name]}", __package__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
