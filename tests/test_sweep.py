@@ -126,3 +126,24 @@ def test_gpu_lowering_factors_square_matrices():
 
     assert getrf_operands("cuda") == ["8x5x5xf64"]
     assert getrf_operands("cpu") == ["8x5x6xf64"]
+
+
+def test_lane_by_lane_lu_is_for_the_cpu_only():
+    """``lu_per_lane`` avoids an XLA-CPU deadlock; lowered for a GPU it stays one batched,
+    square LU (a loop of single-matrix LU calls would be one cuSOLVER call per lane)."""
+    import jax
+    import jax.numpy as jnp
+
+    from proleg.solvers.galpha import lu_factors_per_lane
+
+    J = jnp.asarray(np.random.default_rng(4).normal(size=(8, 5, 5)))
+
+    def lowered(platform):
+        try:
+            return jax.jit(jax.vmap(lu_factors_per_lane)).trace(J).lower(lowering_platforms=(platform,)).as_text()
+        except Exception as exc:  # a jax that cannot lower for a platform it lacks
+            pytest.skip(f"cannot lower for {platform} here: {type(exc).__name__}")
+
+    gpu = [ln for ln in lowered("cuda").splitlines() if "getrf" in ln and "custom_call" in ln]
+    assert len(gpu) == 1 and "tensor<8x5x5xf64>" in gpu[0]
+    assert "stablehlo.while" in lowered("cpu")  # the lax.map over lanes

@@ -177,7 +177,10 @@ def _lu_factors_per_lane_vmap(axis_size, in_batched, J):
     (batched,) = in_batched
     if not batched:
         return lu_factors(J), (False, False)
-    return jax.lax.map(lu_factors_per_lane, J), (True, True)
+    # Lane by lane on the CPU only: the deadlock is XLA-CPU's; a GPU factors the batch at once
+    # (one cuSOLVER call per lane there would cost ~37 µs each, see lu_factors).
+    per_lane = lambda J: jax.lax.map(lu_factors_per_lane, J)  # noqa: E731
+    return jax.lax.platform_dependent(J, cpu=per_lane, default=jax.vmap(_lu_factors_square)), (True, True)
 
 
 def lu_apply(fac, b):
