@@ -147,3 +147,25 @@ def test_lane_by_lane_lu_is_for_the_cpu_only():
     gpu = [ln for ln in lowered("cuda").splitlines() if "getrf" in ln and "custom_call" in ln]
     assert len(gpu) == 1 and "tensor<8x5x5xf64>" in gpu[0]
     assert "stablehlo.while" in lowered("cpu")  # the lax.map over lanes
+
+
+def test_a_single_run_is_placed_on_the_cpu(system, monkeypatch):
+    """``simulate(device=None)``: where JAX's default backend is a GPU, a single untraced run
+    goes to the CPU (one variant is ~9× slower on an H100 than on its host's CPU); inside the
+    user's jit/vmap JAX places it. Named devices work; unknown ones are refused clearly."""
+    import jax
+
+    from proleg.analyses.simulate import run_device
+
+    monkeypatch.setattr(jax, "default_backend", lambda: "gpu")
+    assert run_device(None, traced=False).platform == "cpu"
+    assert run_device(None, traced=True) is None
+    assert run_device("default", traced=False) is None
+    monkeypatch.undo()
+    a = pl.simulate(system, **KW)
+    b = pl.simulate(system, device="cpu", **KW)
+    np.testing.assert_array_equal(np.asarray(a.q), np.asarray(b.q))
+    with pytest.raises(ValueError, match="device='nosuch'"):
+        pl.simulate(system, device="nosuch", **KW)
+    with pytest.raises(TypeError, match="device must be"):
+        pl.simulate(system, device=3, **KW)
