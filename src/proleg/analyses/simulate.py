@@ -3,6 +3,8 @@ error-controlled implicit integrator over the requested output times."""
 
 from __future__ import annotations
 
+import functools
+import inspect
 import math
 import sys
 from functools import partial
@@ -153,9 +155,6 @@ def run_device(device, traced: bool):
 
 def _placed(fn):
     """Run ``fn`` (simulate) under ``jax.default_device(run_device(...))``; adds ``device=``."""
-    import functools
-    import inspect
-
     @functools.wraps(fn)
     def wrapper(system, *args, device=None, **kw):
         dev = run_device(device, _any_traced((getattr(system, "params", None), kw.get("q0"), kw.get("v0"))))
@@ -223,7 +222,7 @@ def simulate(
     jacobian_refresh : accepted for compatibility; ``False`` forces a fresh matrix every step
         (the default already builds one per step)
     device : None (default: a single run goes to the CPU even where JAX's default device is a
-        GPU, which is ~9× slower for one variant; inside ``jit``/``vmap`` JAX places it), a
+        GPU, which is ~8× slower for one variant; inside ``jit``/``vmap`` JAX places it), a
         platform name ("cpu", "gpu", ...), "default", or a ``jax.Device`` (:func:`run_device`)
     coordinates : "auto" (default), "absolute" or "planar" — the coordinates the integrator
         runs on (assembly/coordinates.py). "auto" runs a planar mechanism (one whose joints confine
