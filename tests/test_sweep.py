@@ -150,12 +150,12 @@ def test_lane_by_lane_lu_is_for_the_cpu_only():
 
 
 def test_a_single_run_is_placed_on_the_cpu(system, monkeypatch):
-    """``simulate(device=None)``: where JAX's default backend is a GPU, a single untraced run
+    """``simulate/solve_equilibrium/linearize(device=None)``: where JAX's default backend is a GPU, a single untraced run
     goes to the CPU (one variant is ~9× slower on an H100 than on its host's CPU); inside the
     user's jit/vmap JAX places it. Named devices work; unknown ones are refused clearly."""
     import jax
 
-    from proleg.analyses.simulate import run_device
+    from proleg.analyses.placement import run_device
 
     monkeypatch.setattr(jax, "default_backend", lambda: "gpu")
     assert run_device(None, traced=False).platform == "cpu"
@@ -169,3 +169,9 @@ def test_a_single_run_is_placed_on_the_cpu(system, monkeypatch):
         pl.simulate(system, device="nosuch", **KW)
     with pytest.raises(TypeError, match="device must be"):
         pl.simulate(system, device=3, **KW)
+    # The static analyses take the same keyword.
+    eq = pl.solve_equilibrium(system, device="cpu")
+    np.testing.assert_allclose(eq.q, pl.solve_equilibrium(system).q, rtol=0, atol=1e-12)
+    assert pl.linearize(system, eq, device="cpu").modes() is not None
+    with pytest.raises(ValueError, match="solve_equilibrium: device='nosuch'"):
+        pl.solve_equilibrium(system, device="nosuch")

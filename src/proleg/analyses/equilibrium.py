@@ -8,6 +8,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .placement import placed
 from ..assembly.system import System, constraints, generalized_forces
 from ..errors import ConvergenceError, ModelError
 
@@ -110,6 +111,7 @@ def _tangent_pieces(system, q, t):
     return constraints(system, q, t), Pq, Q, lam, jax.jacfwd(f)(q)
 
 
+@placed
 def solve_equilibrium(
     system: System, q_guess=None, t: float = 0.0, tol: float = 1e-10, max_iter: int = 200, stable: bool = True
 ) -> Equilibrium:
@@ -122,6 +124,9 @@ def solve_equilibrium(
 
     Raises ModelError if the model is not statically determinate (free rigid motion: the
     stiffness restricted to the constraint tangent space is singular), naming the parts that move.
+
+    ``device``: where it runs; by default the CPU even where JAX's default device is a GPU
+    (analyses/placement.py).
     """
     from .simulate import consistent_state, initial_z
 

@@ -9,6 +9,7 @@ import jax.numpy as jnp
 import numpy as np
 import scipy.linalg
 
+from .placement import placed
 from ..assembly.system import System, constraints, generalized_forces
 from ..solvers.initial import mass_matrix
 
@@ -98,12 +99,16 @@ def _linear_pieces(system, q0, lam, t, z0):
     return K, C, M, Pq
 
 
+@placed
 def linearize(system: System, state=None, t: float = 0.0) -> LinearModel:
     """Linear model about ``state`` (an :class:`Equilibrium`, or q with zero velocity).
 
     Controllers enter with their static law (sampled continuously at the state).
 
     K includes the geometric stiffness of the constraint reactions, (Φ_qᵀλ)_q.
+
+    ``device``: where it runs; by default the CPU even where JAX's default device is a GPU
+    (analyses/placement.py).
     """
     from .equilibrium import Equilibrium, solve_equilibrium
 

@@ -3,8 +3,6 @@ error-controlled implicit integrator over the requested output times."""
 
 from __future__ import annotations
 
-import functools
-import inspect
 import math
 import sys
 from functools import partial
@@ -19,15 +17,8 @@ from ..errors import ConvergenceError, SolverError, Status
 from ..solvers.driver import DriverOptions, advance, sample_controllers
 from ..solvers.galpha import GeneralizedAlpha, StepOptions, StepState
 from ..solvers.initial import _normalize_p, kkt_accelerations, mass_matrix
+from .placement import _any_traced, is_traced, placed
 from .result import Result
-
-
-def is_traced(x) -> bool:
-    return isinstance(x, jax.core.Tracer)
-
-
-def _any_traced(tree) -> bool:
-    return any(is_traced(x) for x in jax.tree_util.tree_leaves(tree))
 
 
 def _ic_positions(system: System, q_user, t0, n_iter: int):
@@ -121,55 +112,7 @@ def sample_period(system: System):
     return float(base)
 
 
-def run_device(device, traced: bool):
-    """The device a single (untraced) run is placed on, or None for JAX's own placement.
-
-    ``device`` None ("auto"): the CPU when JAX's default backend is another one (a GPU) and the
-    run is not inside the user's ``jit``/``vmap``. One simulation step is a few hundred
-    microsecond-sized kernels that a GPU launches one at a time: on an H100 host a single 1 s
-    run of the 2-link bench model took 287 ms on the GPU against 33 ms on the host's CPU
-    (bench/README.md), while batches (``sweep``, ``vmap``) belong on the GPU. A platform name
-    ("cpu", "gpu", "cuda", ...) or a ``jax.Device`` picks one; "default" leaves JAX's placement.
-    """
-    if device is None:
-        if traced or jax.default_backend() == "cpu":
-            return None
-        try:
-            return jax.devices("cpu")[0]
-        except RuntimeError:  # no CPU backend in this process
-            return None
-    if isinstance(device, str):
-        if device == "default":
-            return None
-        try:
-            return jax.devices(device)[0]
-        except RuntimeError as exc:
-            raise ValueError(
-                f"simulate: device={device!r} is not available here ({exc}). Expected None (automatic: the CPU for a "
-                f"single run), 'default', a platform JAX has ({jax.default_backend()!r} here) or a jax.Device."
-            ) from None
-    if isinstance(device, jax.Device):
-        return device
-    raise TypeError(f"simulate: device must be None, a platform name or a jax.Device, got {type(device).__name__}.")
-
-
-def _placed(fn):
-    """Run ``fn`` (simulate) under ``jax.default_device(run_device(...))``; adds ``device=``."""
-    @functools.wraps(fn)
-    def wrapper(system, *args, device=None, **kw):
-        dev = run_device(device, _any_traced((getattr(system, "params", None), kw.get("q0"), kw.get("v0"))))
-        if dev is None:
-            return fn(system, *args, **kw)
-        with jax.default_device(dev):
-            return fn(system, *args, **kw)
-
-    sig = inspect.signature(fn)
-    extra = inspect.Parameter("device", inspect.Parameter.KEYWORD_ONLY, default=None)
-    wrapper.__signature__ = sig.replace(parameters=[*sig.parameters.values(), extra])
-    return wrapper
-
-
-@_placed
+@placed
 def simulate(
     system: System,
     t_end: float,
@@ -223,7 +166,7 @@ def simulate(
         (the default already builds one per step)
     device : None (default: a single run goes to the CPU even where JAX's default device is a
         GPU, which is ~8× slower for one variant; inside ``jit``/``vmap`` JAX places it), a
-        platform name ("cpu", "gpu", ...), "default", or a ``jax.Device`` (:func:`run_device`)
+        platform name ("cpu", "gpu", ...), "default", or a ``jax.Device`` (analyses/placement.py)
     coordinates : "auto" (default), "absolute" or "planar" — the coordinates the integrator
         runs on (assembly/coordinates.py). "auto" runs a planar mechanism (one whose joints confine
         every part to a plane: ``system.topo.planar`` says whether and why) on 3 coordinates per
