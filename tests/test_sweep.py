@@ -175,3 +175,15 @@ def test_a_single_run_is_placed_on_the_cpu(system, monkeypatch):
     assert pl.linearize(system, eq, device="cpu").modes() is not None
     with pytest.raises(ValueError, match="solve_equilibrium: device='nosuch'"):
         pl.solve_equilibrium(system, device="nosuch")
+
+
+def test_default_batch_sizes():
+    """Variants per batch: split over the workers, capped per backend (256 on the CPU, where
+    smaller batches run faster per lane; 25,000 on a GPU, which bounds a batch's memory)."""
+    from proleg.analyses.sweep import default_batch_size
+
+    assert default_batch_size(1000, 2, "cpu") == 256
+    assert default_batch_size(300, 2, "cpu") == 150
+    assert default_batch_size(3, 8, "cpu") == 1
+    assert default_batch_size(1000, 1, "gpu") == 1000
+    assert default_batch_size(100_000, 1, "gpu") == 25_000

@@ -34,6 +34,19 @@ from .simulate import simulate
 # Default largest batch on the CPU: per lane-step, 1,000 lanes cost 18 µs, 500 13 µs, and two
 # workers ran 1,000 variants 15 % faster in batches of 250 than of 500 (bench/vmap_batch.py).
 CPU_BATCH_CAP = 256
+# Default largest batch elsewhere (GPU): it bounds the memory of one batch (q and v outputs:
+# ~0.6 GB for 25,000 lanes of the bench model at 101 outputs) at no cost in speed: on an
+# H100, 100,000 variants of bench/vmap_batch.py's model ran at 10,325/s in batches of 25,000
+# and 9,654/s in one batch of 100,000 (bench/README.md).
+ACCEL_BATCH_CAP = 25_000
+
+
+def default_batch_size(n: int, workers: int, backend: str | None = None) -> int:
+    """Variants per batch when ``sweep`` is given no ``batch_size``: ``n`` split evenly over
+    ``workers``, capped at ``CPU_BATCH_CAP`` on the CPU and ``ACCEL_BATCH_CAP`` elsewhere."""
+    backend = backend or jax.default_backend()
+    cap = CPU_BATCH_CAP if backend == "cpu" else ACCEL_BATCH_CAP
+    return max(1, min(math.ceil(n / min(workers, n)), cap))
 
 
 def default_workers() -> int:
@@ -146,9 +159,10 @@ def sweep(
     batch. ``batch_size`` splits a long sweep into batches of that many variants (one
     compilation: the last batch is padded). ``workers`` batches run at the same time, each in
     its own thread (default: on the CPU, one per core this process may use; elsewhere 1); with
-    ``batch_size`` unset the variants are split into ``workers`` equal batches, on the CPU of
-    at most ``CPU_BATCH_CAP`` (256) variants each. Other keywords go to :func:`proleg.simulate`
-    (tolerances, ``fixed_step``, ``coordinates``, ...). A variant that fails is reported in
+    ``batch_size`` unset the variants are split into ``workers`` equal batches of at most
+    ``CPU_BATCH_CAP`` (256) variants on the CPU, ``ACCEL_BATCH_CAP`` (25,000) on a GPU
+    (:func:`default_batch_size`). Other keywords go to :func:`proleg.simulate` (tolerances,
+    ``fixed_step``, ``coordinates``, ...). A variant that fails is reported in
     ``status`` with the time it stopped; the others are unaffected.
     """
     import time
@@ -163,9 +177,7 @@ def sweep(
             raise TypeError(f"sweep: '{k}' is not available in a sweep (variants run together).")
     names = list(values)
     if batch_size is None:
-        bs = math.ceil(n / min(workers, n))
-        if jax.default_backend() == "cpu":
-            bs = min(bs, CPU_BATCH_CAP)
+        bs = default_batch_size(n, workers)
     else:
         bs = max(1, min(int(batch_size), n))
     n_batches = math.ceil(n / bs)
