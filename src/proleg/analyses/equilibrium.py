@@ -8,9 +8,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .placement import placed
 from ..assembly.system import System, constraints, generalized_forces
 from ..errors import ConvergenceError, ModelError
+from .placement import placed
 
 
 @dataclass

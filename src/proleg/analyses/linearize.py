@@ -9,9 +9,9 @@ import jax.numpy as jnp
 import numpy as np
 import scipy.linalg
 
-from .placement import placed
 from ..assembly.system import System, constraints, generalized_forces
 from ..solvers.initial import mass_matrix
+from .placement import placed
 
 
 @dataclass
