@@ -132,6 +132,9 @@ from .model.control import Motion as Motion
 from .model.control import TranslationalActuator as TranslationalActuator
 from . import fn as fn
 from .model.control import StateMachine as StateMachine
+from .model.control import Battery as Battery
+from .model.couplers import Coupler as Coupler
+from .model.couplers import JointStop as JointStop
 from .model.forces import RotationalBacklash as RotationalBacklash
 from .model.flexible import FlexibleBody as FlexibleBody
 from . import robots as robots

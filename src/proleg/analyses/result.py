@@ -237,6 +237,29 @@ class Result:
         coord = jr.angle if m.dof == "rotation" else jr.translation
         return ElementResult(effort=self._np(eff), coordinate=self._np(coord), force=jr.force, torque=jr.torque)
 
+    def coupler(self, name) -> ElementResult:
+        """Reactions of a :class:`~proleg.model.couplers.Coupler` θ₁ = r θ₂, from its multiplier λ:
+        ``torque_1`` on joint 1's part I about z_J1 (−λ) and ``torque_2`` on joint 2's part I
+        about z_J2 (+r λ) [N m] (forces [N] for translations), ``coordinate_1``/``coordinate_2``."""
+        key = getattr(name, "name", name)
+        ct = self.system.topo.ct
+        owners = [o.name for o in ct.owners]
+        k = self._index(owners, key, "coupler")
+        cp = ct.owners[k]
+        if getattr(cp, "kind", "") != "coupler":
+            raise ModelError(f"'{key}' is a {getattr(cp, 'kind', 'joint')}, not a Coupler; use result.joint('{key}').")
+        rows = np.flatnonzero(ct.row_owner == k)
+        if rows.size == 0:
+            raise ModelError(f"Coupler '{key}': its equation was removed as redundant; its reaction is indeterminate.")
+        lam = self._np(self.lam[:, int(rows[0])])
+        start = ct.n_rows - ct.nbody - ct.cp_param.size  # the coupler rows come just before the normalizations
+        ratio = float(np.asarray(self.system.params["coupler_ratio"])[ct.cp_param[int(rows[0]) - start]])
+        c1, c2 = self.joint(cp.joint_1.name), self.joint(cp.joint_2.name)
+        rot = cp.dof == "rotation"
+        q1, q2 = (c1.angle, c2.angle) if rot else (c1.translation, c2.translation)
+        key1, key2 = ("torque_1", "torque_2") if rot else ("force_1", "force_2")
+        return ElementResult({key1: -lam, key2: ratio * lam, "coordinate_1": q1, "coordinate_2": q2, "multiplier": lam})
+
     # -- energies ------------------------------------------------------------------------------
     @cached_property
     def energy(self) -> ElementResult:

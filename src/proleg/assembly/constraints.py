@@ -8,6 +8,8 @@ Joint equations are decomposed into primitive rows, grouped by kind and evaluate
 - ``dot2``: a_I · d
 - ``screw``: z_J·(r_I − r_J) − ℓ θ,  θ = atan2(x_I·y_J, x_I·x_J),  ℓ = pitch/2π
 - ``drv``:  joint coordinate of I relative to J − f(t) (motions, issue "Contacts, motions ...")
+- ``cpl``:  wrap(θ₁ − r θ₂ − c) between the coordinates of two joints (Coupler; translations
+  unwrapped), r = ``coupler_ratio``, c = ``coupler_offset`` (the value at the modelled pose)
 - ``norm``: pᵀp − 1 per body (always last, never dropped)
 """
 
@@ -42,6 +44,12 @@ class ConstraintTopology:
     drv_j: Select
     drv_rot: np.ndarray  # (n,) bool: rotational (True) or translational driver
     drv_fn: tuple = ()  # callables f(t) per driver row
+    cp_i1: Select = None  # coupler rows: markers of joint 1 (I, J) and of joint 2 (I, J)
+    cp_j1: Select = None
+    cp_i2: Select = None
+    cp_j2: Select = None
+    cp_rot: np.ndarray = None  # (n,) bool: rotations (True) or translations
+    cp_param: np.ndarray = None  # (n,) int index into params["coupler_ratio"/"coupler_offset"]
     nbody: int = 0
     labels: list = field(default_factory=list)  # (element name, equation label) per row, in Φ order
     row_owner: np.ndarray = None  # (nrows,) int index into owners (joints, then motions); -1 for norm rows
@@ -52,6 +60,9 @@ class ConstraintTopology:
         return len(self.labels)
 
 
+ROW_KINDS = ("sph", "dot1", "dot2", "screw", "drv", "cpl")  # the order of the rows in Φ
+
+
 def _oh(idx, n):
     """Selection of rows ``idx`` out of ``n`` (gather / scatter-add, see select.py)."""
     return Select(idx, n)
@@ -59,7 +70,7 @@ def _oh(idx, n):
 
 def build_constraint_topology(rows, nm: int, nbody: int, owners) -> ConstraintTopology:
     """``rows``: list of dicts with kind, mi, mj, args, owner (int), label; normalization appended."""
-    by = {k: [r for r in rows if r["kind"] == k] for k in ("sph", "dot1", "dot2", "screw", "drv")}
+    by = {k: [r for r in rows if r["kind"] == k] for k in ROW_KINDS}
     eye3 = np.eye(3)
 
     def ax(lst, pos):
@@ -83,10 +94,16 @@ def build_constraint_topology(rows, nm: int, nbody: int, owners) -> ConstraintTo
         drv_j=_oh([r["mj"] for r in by["drv"]], nm),
         drv_rot=np.array([r["args"][0] for r in by["drv"]], bool),
         drv_fn=tuple(r["args"][1] for r in by["drv"]),
+        cp_i1=_oh([r["mi"] for r in by["cpl"]], nm),
+        cp_j1=_oh([r["mj"] for r in by["cpl"]], nm),
+        cp_i2=_oh([r["args"][0] for r in by["cpl"]], nm),
+        cp_j2=_oh([r["args"][1] for r in by["cpl"]], nm),
+        cp_rot=np.array([r["args"][2] for r in by["cpl"]], bool),
+        cp_param=np.array([r["args"][3] for r in by["cpl"]], int),
         nbody=nbody,
         owners=list(owners),
     )
-    ordered = by["sph"] + by["dot1"] + by["dot2"] + by["screw"] + by["drv"]
+    ordered = [r for k in ROW_KINDS for r in by[k]]
     ct.labels = [(owners[r["owner"]].name, r["label"]) for r in ordered] + [
         (f"body{b}", "normalization") for b in range(nbody)
     ]
@@ -105,8 +122,17 @@ def joint_translation(rI, rJ, RJ):
     return jnp.sum(RJ[..., :, 2] * (rI - rJ), -1)
 
 
-def constraint_values(ct: ConstraintTopology, screw_lead, mr, mR, p, t):
-    """Φ(q, t) from marker positions ``mr`` (nm, 3), frames ``mR`` (nm, 3, 3) and body p (nb, 4)."""
+def _coordinate(sel_i, sel_j, rot, mr, R9):
+    RI = (sel_i @ R9).reshape(-1, 3, 3)
+    RJ = (sel_j @ R9).reshape(-1, 3, 3)
+    return jnp.where(rot, joint_angle(RI, RJ), joint_translation(sel_i @ mr, sel_j @ mr, RJ))
+
+
+def constraint_values(ct: ConstraintTopology, screw_lead, mr, mR, p, t, coupler=None):
+    """Φ(q, t) from marker positions ``mr`` (nm, 3), frames ``mR`` (nm, 3, 3) and body p (nb, 4).
+
+    ``coupler``: (ratio, offset) arrays of the Coupler rows (params ``coupler_ratio``,
+    ``coupler_offset``)."""
     parts = []
     R9 = mR.reshape(mR.shape[0], 9)
     if ct.sph_i.shape[0]:
@@ -139,5 +165,11 @@ def constraint_values(ct: ConstraintTopology, screw_lead, mr, mR, p, t):
         # Rotations: the wrapped difference, so a driven joint can turn through any number of turns.
         dth = th - f
         parts.append(jnp.where(ct.drv_rot, jnp.arctan2(jnp.sin(dth), jnp.cos(dth)), z - f))
+    if ct.cp_i1 is not None and ct.cp_i1.shape[0]:
+        ratio, offset = coupler[0][ct.cp_param], coupler[1][ct.cp_param]
+        c1 = _coordinate(ct.cp_i1, ct.cp_j1, ct.cp_rot, mr, R9)
+        c2 = _coordinate(ct.cp_i2, ct.cp_j2, ct.cp_rot, mr, R9)
+        d = c1 - ratio * c2 - offset
+        parts.append(jnp.where(ct.cp_rot, jnp.arctan2(jnp.sin(d), jnp.cos(d)), d))
     parts.append(jnp.sum(p * p, -1) - 1.0)
     return jnp.concatenate(parts)

@@ -239,24 +239,54 @@ class _CommandMixin:
 class JointActuatorGroup(TwoMarkerGroup, _CommandMixin):
     kind = "joint_actuator"
 
-    def __init__(self, elements, marker_index, nm, cmd_index):
+    def __init__(self, elements, marker_index, nm, cmd_index, batteries=()):
         super().__init__(elements, marker_index, nm)
         self.rot = np.array([e.dof == "rotation" for e in self.elements], bool)
         self.cmd_index = cmd_index
+        self.has_drive = any(e.drive is not None for e in self.elements)
+        # battery index -> member actuator indices (drives sharing one battery, seed 003 Eq. 9)
+        bnames = [b.name for b in batteries]
+        self.battery_members = {}
+        for k, e in enumerate(self.elements):
+            if e.battery is not None:
+                self.battery_members.setdefault(bnames.index(e.battery.name), []).append(k)
+        # A shared battery couples every actuator on it: one clique in the Jacobian pattern.
+        self.clique = bool(self.battery_members)
 
     def params(self):
         return {"joint_actuator_effort": np.array([e.effort_value for e in self.elements], float)}
 
-    def _law(self, P, mk, t, ctx):
+    def _leg_speed(self, k, xd):
+        e = self.elements[k]
+        return xd[k] / e.drive.beta if e.motor_side else xd[k]
+
+    def _law(self, P, mk, t, ctx, full=False):
         x, xd, zJ, delta = joint_coordinate(self.oh_i, self.oh_j, self.rot, mk)
         u = self._command(P, t, ctx, "joint_actuator_effort", [e.effort if callable(e.effort) else None for e in self.elements])
-        outs = []
+        V_of = {}
+        if self.battery_members:
+            from ..drives.battery import shared_supply
+
+            for b, ks in self.battery_members.items():
+                drives = [self.elements[k].drive for k in ks]
+                V_of[b] = shared_supply(
+                    drives, jnp.stack([u[k] for k in ks]), jnp.stack([self._leg_speed(k, xd) for k in ks]),
+                    P["battery_V_nom"][b], P["battery_R_s"][b],
+                )
+        member_of = {k: b for b, ks in self.battery_members.items() for k in ks}
+        outs, elec = [], []
+        zero = jnp.zeros(())
         for k, e in enumerate(self.elements):
             uk = u[k]
             if e.drive is not None:
                 from ..drives.dcmotor import delivered_torque
 
-                uk = delivered_torque(e.drive, uk, xd[k]).torque
+                V = V_of.get(member_of.get(k))
+                d = delivered_torque(e.drive, uk, self._leg_speed(k, xd), battery=True, V=V)
+                uk = d.torque / e.drive.beta if e.motor_side else d.torque
+                elec.append((d.current, d.supply_voltage, d.supply_current, d.electrical_power, d.saturated.astype(jnp.float64), d.torque))
+            else:
+                elec.append((zero, zero, zero, zero, zero, uk))
             if e.gear is not None:
                 from ..drives.gears import output_torque
 
@@ -264,8 +294,10 @@ class JointActuatorGroup(TwoMarkerGroup, _CommandMixin):
             if e.limit is not None:
                 uk = jnp.clip(uk, -e.limit, e.limit)
             outs.append(uk)
-        u = jnp.stack(outs)
-        return x, xd, zJ, delta, u
+        u_out = jnp.stack(outs)
+        if full:
+            return x, xd, zJ, delta, u_out, u, [jnp.stack(c) for c in zip(*elec)]
+        return x, xd, zJ, delta, u_out
 
     def loads(self, P, mk, t, ctx):
         x, xd, zJ, delta, u = self._law(P, mk, t, ctx)
@@ -278,8 +310,15 @@ class JointActuatorGroup(TwoMarkerGroup, _CommandMixin):
         return jnp.sum(u * xd)
 
     def outputs(self, P, mk, t, ctx):
-        x, xd, zJ, delta, u = self._law(P, mk, t, ctx)
-        return {"effort": (u, "N m|N"), "coordinate": (x, "rad|m"), "rate": (xd, "rad/s|m/s"), "power": (u * xd, "W")}
+        x, xd, zJ, delta, u, cmd, elec = self._law(P, mk, t, ctx, full=True)
+        out = {"effort": (u, "N m|N"), "coordinate": (x, "rad|m"), "rate": (xd, "rad/s|m/s"), "power": (u * xd, "W"), "command": (cmd, "N m|N")}
+        if self.has_drive:
+            cur, vs, i_s, p_el, sat, tau_leg = elec
+            out.update(
+                current=(cur, "A"), supply_voltage=(vs, "V"), supply_current=(i_s, "A"),
+                electrical_power=(p_el, "W"), saturated=(sat, "-"), leg_torque=(tau_leg, "N m"),
+            )
+        return out
 
 
 class LineActuatorGroup(TwoMarkerGroup, _CommandMixin):
@@ -383,9 +422,18 @@ def build_extensions(model, topo, marker_index, params):
             continue
         cmd = np.array([ctrl.out_index.get(a.name, -1) if ctrl is not None else -1 for a in elems], int)
         if kind == "joint_actuator":
-            groups.append(JointActuatorGroup(elems, marker_index, nm, cmd))
+            groups.append(JointActuatorGroup(elems, marker_index, nm, cmd, getattr(model, "batteries", ())))
+            if getattr(model, "batteries", None):
+                from .joint_elements import BatteryGroup
+
+                groups.append(BatteryGroup(model.batteries, groups[-1]))
         else:
             groups.append(LineActuatorGroup(elems, marker_index, nm, cmd, kind))
+    stops = [f for f in model.forces if getattr(f, "kind", "") == "joint_stop"]
+    if stops:
+        from .joint_elements import JointStopGroup
+
+        groups.append(JointStopGroup(stops, marker_index, nm))
     for g in groups:
         if len(g):
             params.update(g.params())

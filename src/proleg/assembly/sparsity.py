@@ -64,7 +64,7 @@ def _element_body_sets(topo) -> list[set] | None:
         if getattr(g, "state_dependent", False):
             return None
         sels = _selects(g)
-        if sels and all(len(s) == len(g) for s in sels):
+        if sels and all(len(s) == len(g) for s in sels) and not getattr(g, "clique", False):
             for k in range(len(g)):
                 out.append({int(mb[s.idx[k]]) for s in sels} - {nb})
         else:
@@ -81,6 +81,9 @@ def _constraint_row_bodies(topo) -> list[set]:
     for si, sj in ((ct.sph_i, ct.sph_j), (ct.d1_i, ct.d1_j), (ct.d2_i, ct.d2_j), (ct.sc_i, ct.sc_j), (ct.drv_i, ct.drv_j)):
         for a, b in zip(si.idx, sj.idx):
             rows.append({int(mb[a]), int(mb[b])} - {nb})
+    if ct.cp_i1 is not None:
+        for sel in zip(ct.cp_i1.idx, ct.cp_j1.idx, ct.cp_i2.idx, ct.cp_j2.idx):
+            rows.append({int(mb[m]) for m in sel} - {nb})
     rows += [{b} for b in range(ct.nbody)]
     return rows
 

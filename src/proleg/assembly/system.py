@@ -20,7 +20,7 @@ from ..errors import ModelError
 from ..model.forces import Bushing, Force, RotationalBacklash, RotationalSpringDamper, SpringDamper, Torque
 from ..model.model import Model
 from ..spatial.rotation import G_of_p, L_of_p, mtv, mv, p_from_matrix
-from .constraints import ConstraintTopology, build_constraint_topology, constraint_values
+from .constraints import ROW_KINDS, ConstraintTopology, build_constraint_topology, constraint_values
 from .elements import BushingGroup, PartLoadGroup, RotationalBacklashGroup, RotationalSpringDamperGroup, SpringDamperGroup
 from .kinematics import body_kin, marker_kin
 from .select import Select
@@ -237,7 +237,8 @@ def constraints(system: System, q, t):
     """Φ(q, t) of the kept rows (joints, motions, then Euler-parameter normalization)."""
     topo, P = system.topo, system.params
     bk, mk = kinematics(system, q)
-    return constraint_values(topo.ct, P.get("screw_lead", jnp.zeros(0)), mk.r, mk.R, bk.p[:-1], t)
+    cpl = (P["coupler_ratio"], P["coupler_offset"]) if "coupler_ratio" in P else None
+    return constraint_values(topo.ct, P.get("screw_lead", jnp.zeros(0)), mk.r, mk.R, bk.p[:-1], t, cpl)
 
 
 def mass_action(system: System, q, qdd):
@@ -372,6 +373,7 @@ EXTENSION_HOOKS: list = [_extension_hook]  # callables(model, topo, marker_index
 def _joint_rows(model: Model, marker_index, owners):
     rows = []
     screw_leads = []
+    couplers = []
     for oi, j in enumerate(owners):
         mi, mj = marker_index[id(j.marker_i)], marker_index[id(j.marker_j)]
         for eq in j.equations:
@@ -389,7 +391,12 @@ def _joint_rows(model: Model, marker_index, owners):
                 screw_leads.append(j.pitch)
             elif kind == "drv":
                 rows.append(dict(kind="drv", mi=mi, mj=mj, args=(eq[1], eq[2]), owner=oi, label=eq[3]))
-    return rows, np.array(screw_leads, float)
+            elif kind == "cpl":
+                j2 = j.joint_2
+                mi2, mj2 = marker_index[id(j2.marker_i)], marker_index[id(j2.marker_j)]
+                rows.append(dict(kind="cpl", mi=mi, mj=mj, args=(mi2, mj2, j.dof == "rotation", len(couplers)), owner=oi, label="q1 - r q2"))
+                couplers.append((j.ratio, j.offset))
+    return rows, np.array(screw_leads, float), np.array(couplers, float).reshape(-1, 2)
 
 
 def find_redundant_rows(Phi_q: np.ndarray, nbody: int, scale: np.ndarray | None = None, tol: float = 1e-9):
@@ -488,8 +495,10 @@ def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
         extensions += hook(model, topo, marker_index, params)
     topo.extensions = extensions
     owners = list(model.joints) + list(getattr(model, "_constraint_owners_extra", lambda: [])())
-    rows, leads = _joint_rows(model, marker_index, owners)
+    rows, leads, cpl = _joint_rows(model, marker_index, owners)
     params["screw_lead"] = leads
+    if len(cpl):
+        params["coupler_ratio"], params["coupler_offset"] = cpl[:, 0], cpl[:, 1]
 
     # Redundancy: full row set at the modelled pose, then keep independent rows.
     ct_full = build_constraint_topology(rows, nm, nb, owners)
@@ -498,7 +507,7 @@ def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
     Phi_q = np.asarray(_jit_constraint_jacobian(sys_full, jnp.asarray(q0), 0.0))
     if not np.all(np.isfinite(Phi_q)):
         raise ModelError(f"Model '{model.name}': the constraint Jacobian is not finite at the modelled pose.")
-    ordered = [r for k in ("sph", "dot1", "dot2", "screw", "drv") for r in rows if r["kind"] == k]
+    ordered = [r for k in ROW_KINDS for r in rows if r["kind"] == k]
     keep, drop = find_redundant_rows(Phi_q, nb, tol=redundancy_tol)
     dropped = [(owners[ordered[i]["owner"]].name, ordered[i]["label"]) for i in drop]
     if dropped:

@@ -225,7 +225,7 @@ class DriveOutput(NamedTuple):
     saturated: jnp.ndarray  # bool: the command was clipped (current or voltage limit)
 
 
-def delivered_torque(drive: DCMotorDrive, tau_command, leg_speed, battery=True) -> DriveOutput:
+def delivered_torque(drive: DCMotorDrive, tau_command, leg_speed, battery=True, V=None) -> DriveOutput:
     """Leg torque the drive actually delivers for a commanded leg torque (seed 003, Eqs. 6–14).
 
     ``τ = clip(τ_cmd, τ_min(φ̇), τ_max(φ̇))`` with the envelope of :func:`torque_speed_limits`
@@ -243,14 +243,21 @@ def delivered_torque(drive: DCMotorDrive, tau_command, leg_speed, battery=True) 
     tau_command : array_like [N m]   commanded leg torque
     leg_speed : array_like [rad/s]   φ̇
     battery : bool (static), default True   battery model (Eq. 9) or fixed V_supply
+    V : array_like [V], optional
+        A given supply voltage at the amplifier (overrides ``battery``): the terminal voltage of
+        a battery shared by several drives, solved by :func:`proleg.drives.battery.shared_supply`.
 
     Returns
     -------
     :class:`DriveOutput`
     """
+    if V is not None:
+        battery = False
     V_src, R_src = _source(drive, battery)
+    if V is not None:
+        V_src = V
     w_m = drive.beta * leg_speed
-    tau_lo, tau_hi = torque_speed_limits(drive, leg_speed, battery=battery)
+    tau_lo, tau_hi = torque_speed_limits(drive, leg_speed, V=V, battery=battery)
     tau = jnp.clip(tau_command, tau_lo, tau_hi)
     i = tau / _leg_torque_per_amp(drive, tau, leg_speed)
     v_t = drive.R_a * i + drive.K_omega * w_m

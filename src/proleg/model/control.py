@@ -87,12 +87,48 @@ class Motion:
         return f"Motion({self.name!r})"
 
 
+class Battery:
+    """A battery shared by the DC motor drives that name it (seed 003, Eq. 9 with the total current).
+
+    An ideal source V_nom behind a series resistance R_s: the terminal voltage is
+    ``V_s = V_nom − R_s Σ i_s`` over every drive on it, which sets each drive's saturation
+    (:mod:`proleg.drives.battery`). Outputs (``result.element(name)``): ``voltage`` [V],
+    ``current`` [A] (total, positive discharging), ``power`` [W] (V_s · current, delivered at the
+    terminals), ``internal_loss`` [W] (R_s · current²). Parameters ``"<name>.V_nom"`` and
+    ``"<name>.R_s"`` can be swept.
+
+    Parameters
+    ----------
+    name : str
+    V_nom : float [V], > 0     open-circuit voltage (seed 003: 37.17 V, least-squares fit)
+    R_s : float [Ω], ≥ 0       series resistance (seed 003: 0.13 Ω)
+    """
+
+    kind = "battery"
+
+    def __init__(self, name="battery", V_nom=37.17, R_s=0.13):
+        if not isinstance(name, str) or not name:
+            raise ModelError(f"Battery needs a non-empty name, got {name!r}.")
+        self.name = name
+        self.V_nom = finite_scalar(f"Battery '{name}' V_nom", V_nom, positive=True, unit="V")
+        self.R_s = finite_scalar(f"Battery '{name}' R_s", R_s, nonnegative=True, unit="Ohm")
+
+    def __repr__(self):
+        return f"Battery({self.name!r}, V_nom={self.V_nom:g} V, R_s={self.R_s:g} Ohm)"
+
+
 class JointActuator:
     """A torque (rotational joint) or force (prismatic joint) on marker I about/along z_J, reaction on J.
 
     ``effort`` is a constant, a function ``f(t)`` / ``f(t, state)``, or None when a controller
     drives it (``PID(..., actuator=name)``). With ``drive=`` (a :class:`proleg.drives.DCMotorDrive`)
-    the commanded leg torque is saturated by the motor, amplifier and battery (seed 003 Eqs. 3-14).
+    the commanded leg torque is saturated by the motor, amplifier and battery (seed 003 Eqs. 3-14):
+    by the drive's own battery model (``drive.V_nom``, ``drive.R_s``), or, with ``battery=`` (a
+    :class:`Battery`), by a battery shared with every other drive that names it (Eq. 9 with the
+    total current). With ``motor_side=True`` the joint is the motor shaft (e.g. the drive gear of
+    a gear train modelled with a :class:`~proleg.model.couplers.Coupler`): the commanded torque
+    is still the leg-referred one, the drive reads the leg speed as the joint rate / β, and the
+    joint receives the delivered leg torque / β (the gear losses α/β stay in the drive law).
     ``limit`` clips the effort symmetrically [N m or N]. With ``gear=`` (a
     :class:`proleg.drives.GearTrain`) the command is the motor-side torque and the joint receives
     ratio · η · τ (motor driving) or ratio · τ / η_back (back-driven), by the direction of power flow.
@@ -100,11 +136,16 @@ class JointActuator:
 
     kind = "joint_actuator"
 
-    def __init__(self, name, joint, effort=None, limit=None, drive=None, dof=None, gear=None, gear_speed_eps=1e-3):
+    def __init__(self, name, joint, effort=None, limit=None, drive=None, dof=None, gear=None, gear_speed_eps=1e-3, battery=None, motor_side=False):
         self.name, self.joint_ref, self.effort, self.drive, self.dof = name, joint, effort, drive, dof
         self.gear, self.gear_speed_eps = gear, gear_speed_eps
         if gear is not None and not (getattr(gear, "ratio", 0) and float(gear.ratio) != 0):
             raise ModelError(f"JointActuator '{name}': gear ratio must be non-zero, got {getattr(gear, 'ratio', None)!r}.")
+        if battery is not None and not isinstance(battery, Battery):
+            raise ModelError(f"JointActuator '{name}': battery must be a proleg.Battery, got {battery!r}.")
+        if (battery is not None or motor_side) and drive is None:
+            raise ModelError(f"JointActuator '{name}': battery= and motor_side= need drive= (a DCMotorDrive).")
+        self.battery, self.motor_side = battery, bool(motor_side)
         self.limit = None if limit is None else finite_scalar(f"JointActuator '{name}' limit", limit, positive=True)
         if effort is not None and not callable(effort):
             self.effort_value = finite_scalar(f"JointActuator '{name}' effort", effort)

@@ -30,6 +30,8 @@ class Model:
         self.motions: list = []
         self.controllers: list = []
         self.actuators: list = []
+        self.couplers: list = []
+        self.batteries: list = []
         self._names: dict[str, object] = {}
 
     # -- names -------------------------------------------------------------------------------
@@ -116,6 +118,13 @@ class Model:
                 raise ModelError(f"{who}: joint '{j.name}' has no rotational degree of freedom about its axis.")
             element.joint = j
             element.i, element.j = j.marker_i, j.marker_j
+        from .couplers import JointStop
+
+        if isinstance(element, JointStop):
+            j = element.joint if isinstance(element.joint, AbstractJoint) else self.joint(element.joint)
+            if not any(x is j for x in self.joints):
+                raise ModelError(f"{who}: joint '{j.name}' is not in model '{self.name}'. Add it with model.add_joint first.")
+            element.resolve(j)
         if isinstance(element, Force | Torque):
             if element.marker_in is not None:
                 self._check_marker(element.marker_in, who)
@@ -157,6 +166,35 @@ class Model:
         self.contacts.append(contact)
         return contact
 
+    def add_coupler(self, coupler):
+        """Add a :class:`~proleg.model.couplers.Coupler` (θ₁ = r θ₂ between two joints' coordinates)."""
+        from .couplers import Coupler
+
+        if not isinstance(coupler, Coupler):
+            raise ModelError(f"add_coupler expects a Coupler, got {coupler!r}.")
+        self._claim("Coupler", coupler.name, coupler)
+        js = []
+        for ref in (coupler.joint_1_ref, coupler.joint_2_ref):
+            j = ref if isinstance(ref, AbstractJoint) else self.joint(ref)
+            if not any(x is j for x in self.joints):
+                raise ModelError(f"Coupler '{coupler.name}': joint '{j.name}' is not in model '{self.name}'. Add it first.")
+            js.append(j)
+        coupler.resolve(*js)
+        self.couplers.append(coupler)
+        return coupler
+
+    def add_battery(self, battery):
+        """Add a :class:`~proleg.model.control.Battery` (done for you by a JointActuator that names one)."""
+        from .control import Battery
+
+        if not isinstance(battery, Battery):
+            raise ModelError(f"add_battery expects a Battery, got {battery!r}.")
+        if any(b is battery for b in self.batteries):
+            return battery
+        self._claim("Battery", battery.name, battery)
+        self.batteries.append(battery)
+        return battery
+
     def add_motion(self, motion):
         """Add an imposed joint motion (a rheonomic constraint)."""
         from .control import Motion
@@ -184,6 +222,8 @@ class Model:
                 raise ModelError(f"{who}: joint '{joint.name}' ({joint.kind}) has no {dof or 'free'} degree of freedom to actuate.")
             actuator.joint, actuator.dof = joint, dof
             actuator.i, actuator.j = joint.marker_i, joint.marker_j
+            if actuator.battery is not None:
+                self.add_battery(actuator.battery)
         else:
             self._check_marker(actuator.i, who)
             self._check_marker(actuator.j, who)
@@ -213,7 +253,7 @@ class Model:
         return controller
 
     def _constraint_owners_extra(self):
-        return list(self.motions)
+        return list(self.motions) + list(self.couplers)
 
     # -- lookup ------------------------------------------------------------------------------
     def _get(self, kind, name):
