@@ -429,11 +429,12 @@ def build_extensions(model, topo, marker_index, params):
                 groups.append(BatteryGroup(model.batteries, groups[-1]))
         else:
             groups.append(LineActuatorGroup(elems, marker_index, nm, cmd, kind))
-    stops = [f for f in model.forces if getattr(f, "kind", "") == "joint_stop"]
-    if stops:
-        from .joint_elements import JointStopGroup
+    from .joint_elements import JointFrictionGroup, JointStopGroup
 
-        groups.append(JointStopGroup(stops, marker_index, nm))
+    for kind, gcls in (("joint_stop", JointStopGroup), ("joint_friction", JointFrictionGroup)):
+        elems = [f for f in model.forces if getattr(f, "kind", "") == kind]
+        if elems:
+            groups.append(gcls(elems, marker_index, nm))
     for g in groups:
         if len(g):
             params.update(g.params())

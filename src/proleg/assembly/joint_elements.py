@@ -76,6 +76,36 @@ class JointStopGroup(TwoMarkerGroup):
         }
 
 
+class JointFrictionGroup(TwoMarkerGroup):
+    """:class:`proleg.model.couplers.JointFriction` elements, vectorised."""
+
+    kind = "joint_friction"
+    fields = ("friction", "damping", "slip_rate")
+
+    def __init__(self, elements, marker_index, nm):
+        super().__init__(elements, marker_index, nm)
+        self.rot = np.array([e.dof == "rotation" for e in self.elements], bool)
+
+    def _law(self, P, mk):
+        x, xd, zJ, delta = joint_coordinate(self.oh_i, self.oh_j, self.rot, mk)
+        tq = -P["joint_friction_friction"] * jnp.tanh(xd / P["joint_friction_slip_rate"]) - P["joint_friction_damping"] * xd
+        return xd, zJ, delta, tq
+
+    def loads(self, P, mk, t, ctx):
+        xd, zJ, delta, tq = self._law(P, mk)
+        V = tq[:, None] * zJ
+        rot = self.rot[:, None]
+        return pair_loads(self.oh_i, self.oh_j, jnp.where(rot, 0.0, V), jnp.where(rot, V, 0.0), delta)
+
+    def dissipation(self, P, mk, t, ctx):
+        xd, zJ, delta, tq = self._law(P, mk)
+        return -jnp.sum(tq * xd)
+
+    def outputs(self, P, mk, t, ctx):
+        xd, zJ, delta, tq = self._law(P, mk)
+        return {"torque": (tq, "N m|N"), "rate": (xd, "rad/s|m/s"), "power": (tq * xd, "W")}
+
+
 class BatteryGroup(AbstractGroup):
     """Batteries shared by DC motor drives: parameters and outputs (the law is in the actuators)."""
 

@@ -86,7 +86,7 @@ class System:
     # -- parameters -------------------------------------------------------------------------
     def param_names(self) -> list[str]:
         """Names accepted by :meth:`with_params`: array names and ``element.field`` names."""
-        out = sorted(self.params)
+        out = sorted(self.params) + sorted(k[len("variable_"):] for k in self.params if k.startswith("variable_"))
         out += [f"{n}.mass" for n in self.topo.body_names] + [f"{n}.inertia" for n in self.topo.body_names]
         for g in self.topo.groups + self.topo.extensions:
             for n in g.names:
@@ -96,6 +96,8 @@ class System:
     def _locate(self, key: str):
         if key in self.params:
             return key, None
+        if f"variable_{key}" in self.params:
+            return f"variable_{key}", None
         if "." not in key:
             raise ModelError(f"Unknown parameter '{key}'. Valid names: {self.param_names()}")
         elem, fld = key.rsplit(".", 1)
@@ -211,6 +213,14 @@ class StateView:
 
         i, j = self._joint_markers(joint)
         return joint_translation(self._mk.r[i], self._mk.r[j], self._mk.R[j])
+
+    def variable(self, name):
+        """Value of the design variable ``name`` (``model.add_variable``), a traced parameter."""
+        key = f"variable_{name}"
+        if self._P is None or key not in self._P:
+            have = sorted(k[9:] for k in (self._P or {}) if k.startswith("variable_"))
+            raise ModelError(f"State access: no design variable named '{name}'. Known: {have}. Add it with model.add_variable.")
+        return self._P[key]
 
     def contact_force(self, contact):
         """Normal force [N] of a contact (for touchdown / lift-off guards)."""
@@ -460,6 +470,8 @@ def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
     }
     q0, v0 = initial_coordinates(model)
     params["q_init"], params["v_init"] = q0, v0
+    for vname, (value, _unit, _desc) in getattr(model, "variables", {}).items():
+        params[f"variable_{vname}"] = np.asarray(value, float)
 
     groups = []
     for cls, gcls in GROUP_BUILDERS:
@@ -532,6 +544,8 @@ def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
     else:
         topo.planar = (None, "no revolute joints" if topo.flex is None else "flexible bodies")
     ctrl = next((g for g in extensions if g.kind == "controller"), None)
+    if ctrl is not None:
+        _check_controllers(system, ctrl)
     if ctrl is not None and "controller_setpoint0" in params:
         from .extensions import joint_coordinate
 
@@ -540,6 +554,25 @@ def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
         )
         system = system.with_params(controller_setpoint0=th)
     return system
+
+
+def _check_controllers(system: System, ctrl):
+    """Trace every controller's update once (no compile): an unknown joint, contact or variable
+    in a law or guard is a ModelError here, naming the controller, not a tracer error later."""
+    from .extensions import ControllerGroup
+
+    z0 = jnp.concatenate([jnp.asarray(g.z0(system.params)) for g in system.topo.extensions if hasattr(g, "z0")])
+    q0, v0 = system.params["q_init"], system.params["v_init"]
+    for e, (off, size) in zip(ctrl.elements, ctrl.slices):
+        if e.kind == "pid":
+            continue
+        one = ControllerGroup.__new__(ControllerGroup)
+        one.__dict__.update(ctrl.__dict__)
+        one.elements, one.slices = [e], [(off, size)]
+        try:
+            jax.eval_shape(lambda s, q, v, z: one.sample(s.params, 0.0, q, v, z, s, first=True), system, q0, v0, z0)
+        except ModelError as exc:
+            raise ModelError(f"{type(e).__name__} '{e.name}': {exc}") from None
 
 
 def dof_report(system: System) -> dict:

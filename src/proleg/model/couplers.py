@@ -163,3 +163,39 @@ class JointStop(AbstractForceElement):
 
     def markers(self):
         return [m for m in (self.i, self.j) if m is not None]
+
+
+class JointFriction(AbstractForceElement):
+    """Coulomb (stiction) and viscous friction in a joint: τ = −τ_s tanh(θ̇/ω_s) − c θ̇ on I about z_J.
+
+    The Coulomb part is smoothed over the slip rate ω_s (tanh), so the force is continuous and the
+    implicit integrator converges; below ω_s the joint creeps instead of sticking. Reaction on J.
+    Outputs: ``torque`` [N m] (force [N] for a prismatic joint), ``rate``, ``power`` (≤ 0).
+
+    Parameters
+    ----------
+    name : str
+    joint : joint object or name (Revolute, Prismatic, Cylindrical with ``dof=``)
+    friction : float [N m or N], ≥ 0     τ_s, the Coulomb (stiction) torque or force
+    damping : float [N m s/rad or N s/m], ≥ 0   c
+    slip_rate : float [rad/s or m/s], > 0, default 0.01   ω_s
+    """
+
+    kind = "joint_friction"
+
+    def __init__(self, name, joint, friction=0.0, damping=0.0, slip_rate=0.01, dof=None):
+        super().__init__(name)
+        who = f"JointFriction '{name}'"
+        self.joint, self.dof = joint, dof
+        self.friction = finite_scalar(f"{who} friction", friction, nonnegative=True)
+        self.damping = finite_scalar(f"{who} damping", damping, nonnegative=True)
+        self.slip_rate = finite_scalar(f"{who} slip_rate", slip_rate, positive=True)
+        self.i = self.j = None
+
+    def resolve(self, joint):
+        self.dof = _joint_dof(f"JointFriction '{self.name}'", joint, self.dof)
+        self.joint = joint
+        self.i, self.j = joint.marker_i, joint.marker_j
+
+    def markers(self):
+        return [m for m in (self.i, self.j) if m is not None]

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ModelError
-from ._validate import finite_array
+from ._validate import finite_array, finite_scalar
 from .forces import AbstractForceElement, Force, RotationalSpringDamper, Torque
 from .joints import AbstractJoint
 from .parts import Marker, Part, make_marker
@@ -32,6 +32,7 @@ class Model:
         self.actuators: list = []
         self.couplers: list = []
         self.batteries: list = []
+        self.variables: dict = {}
         self._names: dict[str, object] = {}
 
     # -- names -------------------------------------------------------------------------------
@@ -118,9 +119,9 @@ class Model:
                 raise ModelError(f"{who}: joint '{j.name}' has no rotational degree of freedom about its axis.")
             element.joint = j
             element.i, element.j = j.marker_i, j.marker_j
-        from .couplers import JointStop
+        from .couplers import JointFriction, JointStop
 
-        if isinstance(element, JointStop):
+        if isinstance(element, JointStop | JointFriction):
             j = element.joint if isinstance(element.joint, AbstractJoint) else self.joint(element.joint)
             if not any(x is j for x in self.joints):
                 raise ModelError(f"{who}: joint '{j.name}' is not in model '{self.name}'. Add it with model.add_joint first.")
@@ -165,6 +166,20 @@ class Model:
             raise ModelError(f"{who}: the contact marker and the plane are on the same part '{contact.plane.part.name}'.")
         self.contacts.append(contact)
         return contact
+
+    def add_variable(self, name: str, value: float, unit: str = "", description: str = "") -> str:
+        """Add a design variable (Adams VARIABLE / design variable): a named scalar parameter that
+        controllers and state-dependent functions read with ``state.variable(name)``.
+
+        It becomes the system parameter ``name`` (``system.with_params({name: value})``), so it
+        can be swept, vmapped, differentiated and identified like a stiffness, without
+        recompiling. Returns the name.
+        """
+        if not isinstance(name, str) or not name.isidentifier():
+            raise ModelError(f"Variable name must be an identifier (letters, digits, _), got {name!r}.")
+        self._claim("Variable", name, None)
+        self.variables[name] = (finite_scalar(f"Variable '{name}'", value, unit=unit), unit, description)
+        return name
 
     def add_coupler(self, coupler):
         """Add a :class:`~proleg.model.couplers.Coupler` (θ₁ = r θ₂ between two joints' coordinates)."""

@@ -1,0 +1,388 @@
+"""Scout II bounding quadruped in the sagittal plane (seed 003; MODEL_DATA §4).
+
+:func:`scout2` builds the planar model of seed 003 §2.3 (Fig. 3) with proleg elements:
+
+- **body**: one part (Table 6: 20.865 kg, 1.3 kg m²), held in the sagittal x–z plane by a
+  ``Planar`` joint to ground (x forward, z up, pitch about −y: positive nose-up).
+- **virtual legs** back and front at ∓0.276 m (half hip spacing), each an *upper leg* on a hip
+  ``Revolute`` (axis −y, so a positive leg angle φ swings the toe forward, seed 003 Fig. 3) and
+  a *lower leg* on a ``Prismatic`` joint along the leg, the leg spring-damper between hip and
+  toe (free length = nominal length 0.323 m), a ``JointStop`` at the nominal length (the leg
+  extension stop), and a toe ``SphereContact`` on the ground with Coulomb friction μ.
+  The leg mass and inertia (Table 6) are split between upper and lower leg by
+  ``lower_mass_fraction`` (default 0.3: the telescoping lower tube and toe), with the COMs at
+  ``upper_com`` and ``lower_com`` from the hip (0.12 m and 0.27 m: the leg's COM at 0.165 m,
+  half-way down the leg's upper part where the spring housing is), the inertia split in the
+  same proportion. The paper's one-body leg does not say; these are parameters.
+- **drives**: one equivalent virtual motor per virtual leg (two physical motors in parallel:
+  same K_T and K_ω, half R_a, twice the peak current; scout2_data), the DC motor + amplifier
+  (current mode, 20 A peak per motor) + planetary 72.38 (68 %) + belt 48/34 (96 %) of
+  :class:`proleg.drives.DCMotorDrive`, all on one shared ``Battery`` (37.17 V, 0.13 Ω; Eq. 9
+  with the total current).
+- **Model I**: the delivered leg torque acts at the hip joint directly.
+  **Model II** (§4.2, Fig. 10, Table 5): per virtual leg a *drive gear* part (motor side) and a
+  *driven gear* part on revolute joints to the body at the hip, a ``Coupler`` of ratio
+  β = n_g n_p = 102.2 between them (the gear constraint), the drive on the drive-gear joint
+  (``motor_side``: the motor speed is the drive gear's), joint stiction and damping on the hip
+  (``JointFriction``), and the belt + backlash as a ``RotationalSpringDamper`` between driven
+  gear and leg (7.0 N m/deg: 7.4° at the 51.9 N m full torque of one motor).
+
+The controller (§3.1, Table 4) is a :class:`proleg.StateMachine` per virtual leg at 1 kHz, see
+:func:`bounding_controller`. Every number is a keyword argument (names in
+:class:`Scout2Params`); :func:`scout2` returns the Model with ``model.scout2`` = the
+:class:`Scout2Info` (the parameters, derived values and a parameter table with sources).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+import jax.numpy as jnp
+import numpy as np
+
+from ..drives.dcmotor import DCMotorDrive
+from ..errors import ModelError
+from ..model.contacts import SphereContact
+from ..model.control import Battery, JointActuator, StateMachine
+from ..model.couplers import Coupler, JointFriction, JointStop
+from ..model.forces import RotationalSpringDamper, SpringDamper
+from ..model.joints import Planar, Prismatic, Revolute
+from ..model.model import Model
+from ..units import deg
+from . import scout2_data as D
+
+__all__ = ["scout2", "Scout2Params", "Scout2Info", "bounding_controller", "LEG_STATES", "LEGS"]
+
+LEGS = ("back", "front")
+LEG_STATES = ("flight", "retraction", "brake")  # StateMachine state index 0, 1, 2
+HIP_AXIS = (0.0, -1.0, 0.0)  # positive leg angle and pitch: toe forward, nose up
+
+
+@dataclass
+class Scout2Params:
+    """Every parameter of :func:`scout2` (SI; angles in rad). Defaults: seed 003 (scout2_data)."""
+
+    body_mass: float = D.BODY_MASS
+    body_inertia: float = D.BODY_INERTIA
+    leg_mass: float = D.LEG_MASS
+    leg_inertia: float = D.LEG_INERTIA
+    leg_stiffness: float = D.LEG_STIFFNESS
+    leg_damping: float = D.LEG_DAMPING
+    half_hip_spacing: float = D.HIP_SEPARATION / 2
+    leg_length: float = D.LEG_LENGTH
+    lower_mass_fraction: float = 0.3
+    upper_com: float = 0.12
+    lower_com: float = 0.27
+    toe_radius: float = 0.02
+    contact_stiffness: float = 1e6  # N/m^1.5
+    contact_exponent: float = 1.5
+    contact_damping: float = 2e3
+    contact_penetration: float = 1e-3
+    mu: float = 0.8  # toe–ground friction (unknown in the paper: §5.2 blames it for part of the error)
+    v_stiction: float = 0.02
+    v_friction: float = 0.05
+    stop_stiffness: float = 2e5  # N/m, leg extension stop (per physical leg)
+    stop_damping: float = 200.0  # N s/m
+    # drives (Table 3) and battery (Eq. 9)
+    drive: DCMotorDrive = field(default_factory=DCMotorDrive)
+    motors_per_leg: int = 2
+    V_nom: float = 37.17
+    R_s: float = 0.13
+    # controller (Table 4, per physical leg; the virtual leg's gains are motors_per_leg times)
+    touchdown_back: float = D.TOUCHDOWN_BACK
+    touchdown_front: float = D.TOUCHDOWN_FRONT
+    sweep_back: float = D.SWEEP_LIMIT_BACK
+    sweep_front: float = D.SWEEP_LIMIT_FRONT
+    flight_kp: float = D.FLIGHT_KP
+    flight_kd: float = D.FLIGHT_KD
+    brake_kp: float = D.BRAKE_KP
+    brake_kd: float = D.BRAKE_KD
+    control_period: float = D.CONTROL_PERIOD
+    touchdown_compression: float = 0.004  # m, leg compression that signals touchdown (potentiometer)
+    liftoff_compression: float = 0.002  # m, compression below which the leg has lifted off
+    # Model II hip unit (Table 5, per physical leg)
+    drive_gear_inertia: float = D.DRIVE_GEAR_INERTIA
+    driven_gear_inertia: float = D.DRIVEN_GEAR_INERTIA
+    joint_stiction: float = D.JOINT_STICTION
+    joint_damping: float = D.JOINT_DAMPING
+    belt_stiffness: float = D.BELT_STIFFNESS
+    belt_damping: float = D.BELT_DAMPING
+    angle_sensor: str = "motor"  # Model II: leg angle from the motor encoder ("motor") or at the leg ("leg")
+    # initial condition (flight, legs at zero angle)
+    height: float = 0.38  # m, body COM above ground at t = 0
+    speed: float = 1.0  # m/s forward
+    pitch: float = 0.0  # rad
+    pitch_rate: float = 0.0  # rad/s
+
+
+@dataclass
+class Scout2Info:
+    """What :func:`scout2` built: ``variant`` ("I"/"II"), ``per``, ``params``, the virtual
+    ``drive``, ``leg_joints`` / ``hip_joints`` / ``angle_joints`` (name per leg), and
+    ``parameters``: rows (name, value, unit, source) for the report."""
+
+    variant: str
+    per: str
+    params: Scout2Params
+    drive: DCMotorDrive
+    hip_joints: dict
+    leg_joints: dict
+    angle_joints: dict
+    motors: dict
+    parameters: list = field(default_factory=list)
+
+
+def _check(p: Scout2Params, variant, per):
+    if variant not in ("I", "II"):
+        raise ModelError(f"scout2: model must be 'I' or 'II', got {variant!r}.")
+    if per not in ("physical", "virtual"):
+        raise ModelError(f"scout2: per must be 'physical' or 'virtual' (how Table 6's leg values are read), got {per!r}.")
+    for name in ("body_mass", "body_inertia", "leg_mass", "leg_inertia", "leg_stiffness", "leg_length", "half_hip_spacing", "V_nom", "toe_radius", "contact_stiffness", "control_period"):
+        v = getattr(p, name)
+        if not np.isfinite(v) or v <= 0:
+            raise ModelError(f"scout2: {name} must be positive and finite, got {v!r}.")
+    for name in ("leg_damping", "R_s", "mu", "joint_stiction", "joint_damping", "belt_damping", "drive_gear_inertia", "driven_gear_inertia", "belt_stiffness"):
+        v = getattr(p, name)
+        if not np.isfinite(v) or v < 0:
+            raise ModelError(f"scout2: {name} must be non-negative, got {v!r}.")
+    if variant == "II" and (p.drive_gear_inertia <= 0 or p.driven_gear_inertia <= 0 or p.belt_stiffness <= 0):
+        raise ModelError("scout2: Model II needs positive gear inertias and belt stiffness (Table 5).")
+    for leg in LEGS:
+        td, sw = getattr(p, f"touchdown_{leg}"), getattr(p, f"sweep_{leg}")
+        if not -60 * deg < td < 60 * deg:
+            raise ModelError(
+                f"scout2: touchdown_{leg} = {td / deg:.1f}° is outside the leg's range (−60°, 60°) relative to the body; "
+                "seed 003 Table 4 uses 19° (back) and 21° (front). Give radians (proleg.units.deg)."
+            )
+        if not sw < td:
+            raise ModelError(f"scout2: sweep_{leg} ({sw / deg:.1f}°) must be below touchdown_{leg} ({td / deg:.1f}°): stance sweeps the leg back.")
+    if not 0 < p.lower_mass_fraction < 1:
+        raise ModelError(f"scout2: lower_mass_fraction must be in (0, 1), got {p.lower_mass_fraction}.")
+    if p.height - p.leg_length - p.toe_radius < -0.05 * p.leg_length:
+        raise ModelError(f"scout2: initial height {p.height} m puts the toes {p.leg_length + p.toe_radius - p.height:.3f} m into the ground.")
+    if p.angle_sensor not in ("motor", "leg"):
+        raise ModelError(f"scout2: angle_sensor must be 'motor' or 'leg', got {p.angle_sensor!r}.")
+
+
+def virtual_drive(p: Scout2Params) -> DCMotorDrive:
+    """The equivalent virtual motor of ``motors_per_leg`` motors in parallel (same speed):
+    K_T and K_ω unchanged, R_a / n, i_max · n, so torque and current scale by n (scout2_data)."""
+    n = p.motors_per_leg
+    return dataclasses.replace(p.drive, R_a=p.drive.R_a / n, i_max=p.drive.i_max * n, V_nom=p.V_nom, R_s=p.R_s)
+
+
+def scout2(model: str = "I", *, per: str = "physical", **params) -> Model:
+    """The Scout II sagittal model (seed 003), Model I or Model II; see the module docstring.
+
+    Parameters
+    ----------
+    model : "I" (torque at the hip) or "II" (gears, coupler, belt spring-damper, joint friction)
+    per : "physical" (default) or "virtual": Table 6's leg values per physical leg (a virtual
+        leg is two of them) or per virtual leg (scout2_data explains the choice)
+    **params : any field of :class:`Scout2Params` (angles in rad: ``touchdown_front=20 * deg``)
+
+    Returns
+    -------
+    Model, with ``model.scout2`` a :class:`Scout2Info`.
+    """
+    unknown = set(params) - {f.name for f in dataclasses.fields(Scout2Params)}
+    if unknown:
+        raise ModelError(f"scout2: unknown parameter(s) {sorted(unknown)}. Valid: {[f.name for f in dataclasses.fields(Scout2Params)]}")
+    p = Scout2Params(**params)
+    _check(p, model, per)
+    n_leg = 2.0 if per == "physical" else 1.0  # physical legs per virtual leg for Table 6 values
+    n_mot = float(p.motors_per_leg)  # Table 4/5 values are per physical leg in both readings
+    drive = virtual_drive(p)
+
+    mdl = Model(f"scout2_model_{model}", gravity=(0.0, 0.0, -9.81))
+    # Table 4 gains are per physical leg: the virtual leg's are n_mot times (two legs in parallel).
+    for k in ("flight_kp", "flight_kd", "brake_kp", "brake_kd"):
+        mdl.add_variable(k, n_mot * getattr(p, k), "N m/rad" if k.endswith("kp") else "N m s/rad", "Table 4, virtual leg")
+    mdl.add_variable("touchdown_compression", p.touchdown_compression, "m")
+    mdl.add_variable("liftoff_compression", p.liftoff_compression, "m")
+    h = p.height
+    cp, sp = np.cos(p.pitch), np.sin(p.pitch)
+    Rb = np.array([[cp, 0, -sp], [0, 1, 0], [sp, 0, cp]])  # rotation about −y by the pitch
+    wb = np.array([0.0, -p.pitch_rate, 0.0])
+    vb = np.array([p.speed, 0.0, 0.0])
+    Ib = p.body_inertia
+    body = mdl.add_part("body", mass=p.body_mass, inertia=(Ib, Ib, Ib), position=(0, 0, h), orientation=Rb, velocity=vb, angular_velocity=wb)
+    mdl.add_joint(Planar("sagittal", body, mdl.ground, at=(0, 0, h), axis=(0, 1, 0)))
+    battery = Battery("battery", V_nom=p.V_nom, R_s=p.R_s)
+
+    def at(local):  # ground position of a point given in the body frame at the initial pose
+        return np.array([0, 0, h]) + Rb @ np.asarray(local, float)
+
+    def vel(local):
+        return vb + np.cross(wb, Rb @ np.asarray(local, float))
+
+    m_leg, I_leg = p.leg_mass * n_leg, p.leg_inertia * n_leg
+    f = p.lower_mass_fraction
+    hips, legs, angles, motors = {}, {}, {}, {}
+    for leg, sx in (("back", -1.0), ("front", 1.0)):
+        xh = sx * p.half_hip_spacing
+        hip = at((xh, 0, 0))
+        ax = Rb @ np.array([0.0, 0.0, -1.0])  # leg axis, hip → toe
+        mu_, ml_ = (1 - f) * m_leg, f * m_leg
+        Iu, Il = (1 - f) * I_leg, f * I_leg
+        upper = mdl.add_part(f"{leg}_upper", mass=mu_, inertia=(Iu, Iu, Iu), position=at((xh, 0, -p.upper_com)), orientation=Rb, velocity=vel((xh, 0, -p.upper_com)), angular_velocity=wb)
+        lower = mdl.add_part(f"{leg}_lower", mass=ml_, inertia=(Il, Il, Il), position=at((xh, 0, -p.lower_com)), orientation=Rb, velocity=vel((xh, 0, -p.lower_com)), angular_velocity=wb)
+        hj = mdl.add_joint(Revolute(f"{leg}_hip", upper, body, at=hip, axis=Rb @ np.array(HIP_AXIS)))
+        lj = mdl.add_joint(Prismatic(f"{leg}_leg", lower, upper, at=hip, axis=ax))
+        toe = at((xh, 0, -p.leg_length))
+        m_hip = mdl.add_marker(upper, f"{leg}_spring_top", hip)
+        m_toe = mdl.add_marker(lower, f"{leg}_toe", toe)
+        mdl.add_force(SpringDamper(f"{leg}_spring", m_toe, m_hip, stiffness=p.leg_stiffness * n_leg, damping=p.leg_damping * n_leg, free_length=p.leg_length))
+        mdl.add_force(JointStop(f"{leg}_stop", lj, upper=0.0, stiffness=p.stop_stiffness * n_leg, damping=p.stop_damping * n_leg, penetration=1e-3))
+        mdl.add_contact(SphereContact(
+            f"{leg}_toe_contact", m_toe, radius=p.toe_radius, stiffness=p.contact_stiffness, exponent=p.contact_exponent,
+            damping=p.contact_damping, penetration=p.contact_penetration, mu_static=p.mu, mu_dynamic=p.mu,
+            v_stiction=p.v_stiction, v_friction=p.v_friction,
+        ))
+        hips[leg], legs[leg], angles[leg] = hj.name, lj.name, hj.name
+        if model == "I":
+            act = JointActuator(f"{leg}_motor", hj, drive=drive, battery=battery)
+        else:
+            Jd, Jn = p.drive_gear_inertia * n_mot, p.driven_gear_inertia * n_mot
+            ha = Rb @ np.array(HIP_AXIS)
+            dg = mdl.add_part(f"{leg}_drive_gear", mass=1e-3, inertia=(Jd, Jd, Jd), position=hip, orientation=Rb, velocity=vel((xh, 0, 0)), angular_velocity=wb)
+            ng = mdl.add_part(f"{leg}_driven_gear", mass=1e-3, inertia=(Jn, Jn, Jn), position=hip, orientation=Rb, velocity=vel((xh, 0, 0)), angular_velocity=wb)
+            dj = mdl.add_joint(Revolute(f"{leg}_motor_shaft", dg, body, at=hip, axis=ha))
+            nj = mdl.add_joint(Revolute(f"{leg}_pulley", ng, body, at=hip, axis=ha))
+            mdl.add_coupler(Coupler(f"{leg}_gearbox", dj, nj, ratio=drive.beta))
+            bi = mdl.add_marker(upper, f"{leg}_belt_leg", hip, orientation=hj.marker_i.orientation)
+            bj = mdl.add_marker(ng, f"{leg}_belt_pulley", hip, orientation=hj.marker_i.orientation)
+            mdl.add_force(RotationalSpringDamper(f"{leg}_belt", bi, bj, stiffness=p.belt_stiffness * n_mot, damping=p.belt_damping * n_mot))
+            mdl.add_force(JointFriction(f"{leg}_hip_friction", hj, friction=p.joint_stiction * n_mot, damping=p.joint_damping * n_mot))
+            act = JointActuator(f"{leg}_motor", dj, drive=drive, battery=battery, motor_side=True)
+            if p.angle_sensor == "motor":
+                angles[leg] = nj.name
+        mdl.add_actuator(act)
+        motors[leg] = act.name
+        mdl.add_variable(f"touchdown_{leg}", getattr(p, f"touchdown_{leg}"), "rad", "Table 4 touchdown angle")
+        mdl.add_variable(f"sweep_{leg}", getattr(p, f"sweep_{leg}"), "rad", "Table 4 sweep limit")
+        mdl.add_controller(bounding_controller(leg, p, drive, angle_joint=angles[leg], leg_joint=lj.name, actuator=act.name))
+    mdl.scout2 = Scout2Info(model, per, p, drive, hips, legs, angles, motors, _parameter_table(p, model, per, drive))
+    return mdl
+
+
+def bounding_controller(leg: str, p: Scout2Params, drive: DCMotorDrive, *, angle_joint: str, leg_joint: str, actuator: str) -> StateMachine:
+    """The constant-touchdown-angle bounding controller of one virtual leg (seed 003 §3.1).
+
+    States (``LEG_STATES``, the index in ``result.controller(name).state[:, 0]``):
+
+    - **flight** (0): PD to the touchdown angle relative to the body,
+      τ = k_p (φ_td − φ) − k_d φ̇ (Table 4: (250, 5) per physical leg, N m/rad and N m s/rad);
+    - **retraction** (1): the saturated sweep torque of Eq. 3, τ = −τ_max + A φ̇ with τ_max and
+      A of Eq. 4 at V = 36 V for the virtual motor, clipped to −α K_T i_max (Eq. 6) and to ≤ 0
+      (Eq. 7);
+    - **brake** (2): PD (300, 5) holding the sweep limit.
+
+    Transitions: flight → retraction at touchdown (leg compression > ``touchdown_compression``,
+    the potentiometer); retraction → brake when φ ≤ the sweep limit; retraction or brake →
+    flight at lift-off (compression < ``liftoff_compression``). φ and φ̇ are the leg angle
+    relative to the body from ``angle_joint`` (the hip in Model I; the motor encoder, i.e. the
+    driven gear, in Model II). No body-state feedback.
+
+    The set points, gains and thresholds are design variables of the model (``touchdown_back``,
+    ``touchdown_front``, ``sweep_back``, ``sweep_front`` [rad]; ``flight_kp``, ``flight_kd``,
+    ``brake_kp``, ``brake_kd`` for the virtual leg; ``touchdown_compression``,
+    ``liftoff_compression`` [m]; added by :func:`scout2`), so
+    ``system.with_params(touchdown_front=...)`` changes them without recompiling.
+    """
+    tau_max = float(drive.tau_max)  # α K_T V / R_a at V = 36 V (Eq. 4), virtual motor
+    A = float(drive.A)
+    tau_lim = float(drive.tau_current_limit)  # α K_T i_max (Eq. 6)
+    var = lambda s, k: s.variable(k)
+
+    def phi(s):
+        return s.joint_angle(angle_joint), s.joint_rate(angle_joint)
+
+    def compression(s):
+        return -s.joint_translation(leg_joint)
+
+    def flight(t, s, mem):
+        a, ad = phi(s)
+        return {actuator: var(s, "flight_kp") * (var(s, f"touchdown_{leg}") - a) - var(s, "flight_kd") * ad}
+
+    def retraction(t, s, mem):
+        a, ad = phi(s)
+        tau = -tau_max + A * ad  # Eq. 3
+        tau = jnp.maximum(tau, -tau_lim)  # Eq. 6
+        return {actuator: jnp.minimum(tau, 0.0)}  # Eq. 7
+
+    def brake(t, s, mem):
+        a, ad = phi(s)
+        return {actuator: var(s, "brake_kp") * (var(s, f"sweep_{leg}") - a) - var(s, "brake_kd") * ad}
+
+    touchdown = lambda t, s, mem: compression(s) > var(s, "touchdown_compression")
+    liftoff = lambda t, s, mem: compression(s) < var(s, "liftoff_compression")
+    swept = lambda t, s, mem: phi(s)[0] <= var(s, f"sweep_{leg}")
+    return StateMachine(
+        f"{leg}_controller",
+        states={"flight": flight, "retraction": retraction, "brake": brake},
+        transitions=[
+            ("flight", "retraction", touchdown),
+            ("retraction", "flight", liftoff),
+            ("retraction", "brake", swept),
+            ("brake", "flight", liftoff),
+        ],
+        initial="flight",
+        outputs=[actuator],
+        period=p.control_period,
+    )
+
+
+def _parameter_table(p: Scout2Params, variant, per, drive):
+    d = p.drive
+    rows = [
+        ("model", variant, "-", "seed 003 §5.1: I torque at the hip, II hip unit of Fig. 10"),
+        ("Table 6 leg values read per", per, "-", "not printed; scout2_data explains the choice"),
+        ("body mass", p.body_mass, "kg", "Table 6"),
+        ("body pitch inertia", p.body_inertia, "kg m²", "Table 6"),
+        ("leg mass (per physical leg)" if per == "physical" else "leg mass (per virtual leg)", p.leg_mass, "kg", "Table 6"),
+        ("leg inertia", p.leg_inertia, "kg m²", "Table 6"),
+        ("leg spring", p.leg_stiffness, "N/m", "Table 6"),
+        ("leg damping", p.leg_damping, "N s/m", "Table 6"),
+        ("half hip spacing", p.half_hip_spacing, "m", "Table 6 (0.552 / 2)"),
+        ("nominal leg length (extension stop)", p.leg_length, "m", "Table 6"),
+        ("lower-leg mass fraction", p.lower_mass_fraction, "-", "chosen (paper: one leg body)"),
+        ("upper / lower leg COM from hip", f"{p.upper_com} / {p.lower_com}", "m", "chosen"),
+        ("toe radius", p.toe_radius, "m", "chosen"),
+        ("toe contact k, e, c", f"{p.contact_stiffness:g}, {p.contact_exponent:g}, {p.contact_damping:g}", "N/m^e, -, N s/m", "chosen (IMPACT, seed 002)"),
+        ("toe friction μ", p.mu, "-", "unknown in the paper (§5.2); chosen"),
+        ("torque constant K_T", d.K_T, "N m/A", "Table 3"),
+        ("speed constant K_ω", d.K_omega, "V s/rad", "Table 3, interpreted 6.78e-4 V/(deg/s)"),
+        ("armature resistance R_a (one motor)", d.R_a, "Ω", "Table 3"),
+        ("planetary ratio / efficiency", f"{d.gear_ratio} / {d.gear_efficiency}", "-", "Table 3"),
+        ("belt ratio / efficiency", f"{d.belt_ratio:.4f} / {d.belt_efficiency}", "-", "Table 3 (48/34)"),
+        ("α, β", f"{float(d.alpha):.2f}, {float(d.beta):.2f}", "-", "Eq. 5"),
+        ("peak current (one motor)", d.i_max, "A", "§4.1"),
+        ("motors per virtual leg", p.motors_per_leg, "-", "§2.2: one per physical leg"),
+        ("virtual-leg stall torque τ_max (36 V)", float(drive.tau_max), "N m", "Eq. 4"),
+        ("virtual-leg torque slope A", float(drive.A), "N m s/rad", "Eq. 4"),
+        ("virtual-leg current-limit torque", float(drive.tau_current_limit), "N m", "Eq. 6"),
+        ("battery V_nom, R_s", f"{p.V_nom}, {p.R_s}", "V, Ω", "Eq. 9 fit"),
+        ("touchdown angle back / front", f"{p.touchdown_back / deg:g} / {p.touchdown_front / deg:g}", "deg", "Table 4"),
+        ("sweep limit back / front", f"{p.sweep_back / deg:g} / {p.sweep_front / deg:g}", "deg", "Table 4"),
+        ("flight PD (per physical leg)", f"({p.flight_kp:g}, {p.flight_kd:g})", "N m/rad, N m s/rad", "Table 4, read SI per rad"),
+        ("stance-brake PD (per physical leg)", f"({p.brake_kp:g}, {p.brake_kd:g})", "N m/rad, N m s/rad", "Table 4, read SI per rad"),
+        ("control period", p.control_period, "s", "§2.2 (1 kHz)"),
+        ("touchdown / lift-off compression", f"{p.touchdown_compression} / {p.liftoff_compression}", "m", "chosen (potentiometer threshold)"),
+    ]
+    if variant == "II":
+        rows += [
+            ("drive gear inertia (per motor)", p.drive_gear_inertia, "kg m²", "Table 5, exponent interpreted (scout2_data)"),
+            ("driven gear inertia (per motor)", p.driven_gear_inertia, "kg m²", "Table 5, exponent interpreted"),
+            ("joint stiction", p.joint_stiction, "N m", "Table 5"),
+            ("joint damping", p.joint_damping, "N m s/rad", "Table 5, 6.2e-4 N m/(deg/s) interpreted"),
+            ("belt spring", p.belt_stiffness, "N m/rad", "Table 5 (7.0 N m/deg)"),
+            ("belt damper", p.belt_damping, "N m s/rad", "Table 5, 4.0e-2 N m s/deg interpreted"),
+            ("leg angle sensor", p.angle_sensor, "-", "§3.1: motor encoders"),
+        ]
+    rows += [
+        ("initial height / speed", f"{p.height} / {p.speed}", "m, m/s", "chosen (flight, legs at 0°)"),
+        ("initial pitch / pitch rate", f"{p.pitch / deg:g} / {p.pitch_rate:g}", "deg, rad/s", "chosen"),
+    ]
+    return rows

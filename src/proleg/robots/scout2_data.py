@@ -1,0 +1,79 @@
+"""Scout II parameters (seed 003: ../shared/seeds/003_26a303a01dfc6a70.txt; MODEL_DATA §4).
+
+Every value cites its table; values the paper prints garbled or not at all are marked
+**interpreted**, with the reasoning, and stay parameters of :func:`proleg.robots.scout2`.
+
+Per physical or per virtual leg (Table 6 does not say)
+-------------------------------------------------------
+We read Table 6's leg values (mass, inertia, spring, damping) and Table 5's hip-unit values as
+**per physical leg**, and build each virtual leg (a lateral pair, seed 003 §2.3 / Fig. 3) as
+two physical legs in parallel: twice the mass, inertia, spring, damping, belt stiffness and
+gear inertias, and one equivalent virtual motor (two motors in parallel at the same speed:
+same K_T and K_ω, half the armature resistance, twice the peak current, so Eqs. 3–4 give twice
+the torque). Three facts support it:
+
+- Table 5's belt spring 7.0 N m/deg and the "≈ 8° at full torque" of §4.2 agree for *one*
+  motor: α K_T i_max = 51.9 N m / 7.0 N m/deg = 7.4°.
+- Table 4 says its gains are per physical leg ("for each of the physical legs", §3.2).
+- With 3520 N/m per *virtual* leg, the robot's weight (24.7 kg) alone would compress a
+  single-stance leg by 69 mm (21 % of 0.323 m) and the dynamic stance load ~2–3 times that;
+  per physical leg it is half.
+
+The report shows what the other reading (``per="virtual"``: Table 6 values for the whole
+virtual leg) changes. The body mass and inertia are the whole body's either way.
+"""
+
+from __future__ import annotations
+
+from ..units import deg
+
+# Table 6 (basic mechanical properties) ------------------------------------------------------
+BODY_MASS = 20.865  # kg
+BODY_INERTIA = 1.3  # kg m² (pitch)
+LEG_MASS = 0.97  # kg, per physical leg (see module docstring)
+LEG_INERTIA = 0.01  # kg m², per physical leg, about the leg's COM
+LEG_STIFFNESS = 3520.0  # N/m, per physical leg
+LEG_DAMPING = 55.0  # N s/m, per physical leg
+HIP_SEPARATION = 0.552  # m; half spacing L = 0.276 m
+LEG_LENGTH = 0.323  # m, nominal (extension stop)
+
+# Table 4 (controller, per physical leg; "SI units, angles in degrees") ----------------------
+# Read as: angles in degrees, gains in SI per radian (N m/rad, N m s/rad). Per degree, kp = 250
+# N m/deg would saturate the 52 N m motor at 0.2° and kd = 5 N m s/deg = 286 N m s/rad on a
+# ~0.05 kg m² leg at 1 kHz is far outside the sampled PD's stability bound (kd T/I < 2).
+TOUCHDOWN_FRONT = 21.0 * deg
+TOUCHDOWN_BACK = 19.0 * deg
+SWEEP_LIMIT_FRONT = 0.0 * deg
+SWEEP_LIMIT_BACK = 0.0 * deg
+FLIGHT_KP, FLIGHT_KD = 250.0, 5.0  # N m/rad, N m s/rad
+BRAKE_KP, BRAKE_KD = 300.0, 5.0  # N m/rad, N m s/rad
+CONTROL_PERIOD = 1e-3  # s (1 kHz, §2.2)
+
+# Table 5 (hip unit, Model II; exponents garbled in the extraction: interpreted) -------------
+# Drive gear (motor side) inertia "3.5 10°°": read 3.5e-6 kg m². Reflected to the leg through
+# β = 102.2 it is 0.037 kg m², about the leg's own inertia about the hip (0.01 + 0.97 · 0.19²
+# ≈ 0.045): the "gearbox dynamics" that slow the flight response (§5.2). 3.5e-5 would reflect
+# 0.37 kg m², 8× the leg, and the 52 N m motor could not swing the leg through its 21° in a
+# 0.1 s flight (needs ≈ 61 N m).
+DRIVE_GEAR_INERTIA = 3.5e-6  # kg m², per physical leg, interpreted
+# Driven gear (leg side) inertia "1¢": read 1e-4 kg m² (an aluminium pulley of ≈ 60 mm, 0.2 kg:
+# ½ m r² ≈ 9e-5). Small against the leg either way.
+DRIVEN_GEAR_INERTIA = 1e-4  # kg m², per physical leg, interpreted
+JOINT_STICTION = 5.5e-3  # N m (printed 5.5 × 10^-3)
+# Joint damping "6.2x 1077 Nm deg's": read 6.2e-4 N m/(deg/s) = 0.0355 N m s/rad (0.7 % of
+# the flight kd; 6.2e-7 would be nothing, 6.2e-2 would be 2/3 of the servo's own damping).
+JOINT_DAMPING = 6.2e-4 / deg  # N m s/rad, interpreted
+BELT_STIFFNESS = 7.0 / deg  # N m/rad (7.0 N m/deg; 51.9 N m → 7.4°, the "≈ 8°" of §4.2)
+# Belt damper "4.0 Nm degs^-1": read 4.0e-2 N m s/deg = 2.29 N m s/rad, damping ratio ≈ 0.3 of
+# the belt with the leg (c_crit = 2 √(k J) ≈ 8.5 N m s/rad); 4.0 N m s/deg would be 27 × c_crit
+# (the belt a rigid dashpot), 4.0e-3 an undamped belt ringing at ≈ 15 Hz.
+BELT_DAMPING = 4.0e-2 / deg  # N m s/rad, interpreted
+
+# Paper results to compare with (§5.2, Fig. 7, Fig. 16) ----------------------------------------
+SPEED_MEASURED = 1.286  # m/s, ± 0.04 (10 runs on carpet)
+SPEED_MEASURED_SD = 0.04
+SPEED_MODEL_I = 1.56  # m/s
+SPEED_MODEL_II = 1.43  # m/s
+SR_MECHANICAL = 0.47  # at 1.3 m/s (Fig. 7)
+SR_ELECTRICAL = 1.4  # ≈, at 1.3 m/s (Fig. 7, §3.3)
+SR_LOW_SPEED = (0.85, 0.75, 2.2)  # (speed m/s, mechanical, electrical) (§3.3)
