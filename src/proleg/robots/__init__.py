@@ -2,6 +2,11 @@
 
 - :func:`hyq_leg`: the HyQ hydraulic leg on the HAL test bench (seeds 000 and 001), rigid or
   with 4 or 8 pin bushings; virtual bench tests in :mod:`proleg.robots.hyq_tests`.
+
+- :func:`scout2`, :func:`scout2_bound`: the Scout II bounding quadruped (seed 003), Model I and
+  Model II, its bounding runs and gait metrics; scenario ``proleg run scout2-bound``.
 """
 
 from .hyq_leg import hyq_leg as hyq_leg
+from .scout2 import scout2 as scout2
+from .scout2_bound import scout2_bound as scout2_bound

@@ -68,7 +68,7 @@ class Scout2Params:
     leg_mass: float = D.LEG_MASS
     leg_inertia: float = D.LEG_INERTIA
     leg_stiffness: float = D.LEG_STIFFNESS
-    leg_damping: float = D.LEG_DAMPING
+    leg_damping: float = D.LEG_DAMPING / 2  # per physical leg: Table 6's 55 N s/m read per virtual leg (scout2_data)
     half_hip_spacing: float = D.HIP_SEPARATION / 2
     leg_length: float = D.LEG_LENGTH
     lower_mass_fraction: float = 0.3
@@ -99,8 +99,8 @@ class Scout2Params:
     brake_kp: float = D.BRAKE_KP
     brake_kd: float = D.BRAKE_KD
     control_period: float = D.CONTROL_PERIOD
-    touchdown_compression: float = 0.004  # m, leg compression that signals touchdown (potentiometer)
-    liftoff_compression: float = 0.002  # m, compression below which the leg has lifted off
+    touchdown_compression: float = 0.005  # m, leg compression that signals touchdown (potentiometer)
+    liftoff_compression: float = 0.003  # m, compression below which the leg has lifted off
     # Model II hip unit (Table 5, per physical leg)
     drive_gear_inertia: float = D.DRIVE_GEAR_INERTIA
     driven_gear_inertia: float = D.DRIVEN_GEAR_INERTIA
@@ -109,11 +109,14 @@ class Scout2Params:
     belt_stiffness: float = D.BELT_STIFFNESS
     belt_damping: float = D.BELT_DAMPING
     angle_sensor: str = "motor"  # Model II: leg angle from the motor encoder ("motor") or at the leg ("leg")
-    # initial condition (flight, legs at zero angle)
-    height: float = 0.38  # m, body COM above ground at t = 0
-    speed: float = 1.0  # m/s forward
-    pitch: float = 0.0  # rad
-    pitch_rate: float = 0.0  # rad/s
+    # initial condition: flight (both toes off the ground), legs at rest relative to the body;
+    # the default is the apex of the double-flight phase on Model I's bounding cycle (bench/scout2.py)
+    height: float = 0.344  # m, body COM above ground at t = 0
+    speed: float = 1.5  # m/s forward
+    pitch: float = 0.0  # rad, nose-up positive
+    pitch_rate: float = 2.16  # rad/s, nose-up positive
+    leg_angle_back: float = D.TOUCHDOWN_BACK  # rad, leg angles relative to the body at t = 0
+    leg_angle_front: float = 0.0
 
 
 @dataclass
@@ -263,8 +266,38 @@ def scout2(model: str = "I", *, per: str = "physical", **params) -> Model:
         mdl.add_variable(f"touchdown_{leg}", getattr(p, f"touchdown_{leg}"), "rad", "Table 4 touchdown angle")
         mdl.add_variable(f"sweep_{leg}", getattr(p, f"sweep_{leg}"), "rad", "Table 4 sweep limit")
         mdl.add_controller(bounding_controller(leg, p, drive, angle_joint=angles[leg], leg_joint=lj.name, actuator=act.name))
+        _swing(mdl, leg, hip, Rb @ np.array(HIP_AXIS), getattr(p, f"leg_angle_{leg}"), drive.beta if model == "II" else None)
     mdl.scout2 = Scout2Info(model, per, p, drive, hips, legs, angles, motors, _parameter_table(p, model, per, drive))
     return mdl
+
+
+def _rotation(axis, angle):
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+
+
+def _swing(mdl, leg, hip, axis, angle, beta):
+    """Start a leg at ``angle`` [rad] from its modelled (vertical) pose about the hip axis.
+
+    The markers, joint zeros, Coupler offsets and stop limits were made at the vertical pose,
+    so only the parts' initial positions move (joint coordinates then read ``angle``); in
+    Model II the driven gear turns with the leg and the drive gear β times as far, so the belt
+    is unstretched and the gear constraint holds. Velocities stay the body's at that point.
+    """
+    if angle == 0.0:
+        return
+    R = _rotation(axis, angle)
+    parts = {f"{leg}_upper": R, f"{leg}_lower": R}
+    if beta is not None:
+        parts[f"{leg}_driven_gear"] = R
+        parts[f"{leg}_drive_gear"] = _rotation(axis, float(beta) * angle)
+    for name, Rk in parts.items():
+        part = mdl.part(name)
+        body = mdl.part("body")
+        part.position = hip + Rk @ (part.position - hip)
+        part.orientation = Rk @ part.orientation
+        part.velocity = body.velocity + np.cross(body.angular_velocity, part.position - body.position)
 
 
 def bounding_controller(leg: str, p: Scout2Params, drive: DCMotorDrive, *, angle_joint: str, leg_joint: str, actuator: str) -> StateMachine:

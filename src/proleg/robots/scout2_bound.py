@@ -118,7 +118,7 @@ def stride_table(result: Result, info) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def detect_period(features, tol: float = 0.02, min_strides: int = 4) -> int:
+def detect_period(features, tol: float = 0.03, min_strides: int = 4) -> int:
     """Period of a stride sequence: 1, 2, or 0 (no steady gait).
 
     Parameters
@@ -149,7 +149,7 @@ def detect_period(features, tol: float = 0.02, min_strides: int = 4) -> int:
     return 0
 
 
-def gait_metrics(result: Result, strides: pd.DataFrame, system: System, *, transient: float, period_tol: float = 0.02) -> dict:
+def gait_metrics(result: Result, strides: pd.DataFrame, system: System, *, transient: float, period_tol: float = 0.03) -> dict:
     """The issue's metrics from the steady strides (those starting at or after ``transient``)."""
     pitch = pitch_deg(result)
     z = result.part("body").position[:, 2]
@@ -163,7 +163,7 @@ def gait_metrics(result: Result, strides: pd.DataFrame, system: System, *, trans
                   "specific_resistance_mechanical", "specific_resistance_electrical", "speed_variation"):
             out[k] = float("nan")
         return out
-    feats = steady[["duration [s]", "speed [m/s]", "pitch max [deg]", "height max [m]"]].to_numpy()
+    feats = np.column_stack([steady["duration [s]"], steady["speed [m/s]"], steady["pitch max [deg]"] - steady["pitch min [deg]"]])
     v = float(np.sum(steady["speed [m/s]"] * steady["duration [s]"]) / np.sum(steady["duration [s]"]))
     tw = steady["duration [s]"].to_numpy()
 

@@ -19,6 +19,14 @@ the torque). Three facts support it:
   single-stance leg by 69 mm (21 % of 0.323 m) and the dynamic stance load ~2–3 times that;
   per physical leg it is half.
 
+The leg *damping* is the exception: Table 6's 55 N s/m is read as the virtual leg's (27.5 N s/m
+per physical leg). Read per physical leg (110 N s/m per virtual leg, damping ratio ≈ 0.2 in
+stance) the legs lose so much of each bounce that Model I does not settle into a bound from
+the nominal start; at 55 N s/m per virtual leg it bounds period-one (measured in
+bench/scout2.py and shown in the report). The damping of the real telescopic legs is mostly
+friction (§5.2 blames "stiction and nonlinear damping ... inherent in the telescopic leg
+design"), which a viscous constant only approximates.
+
 The report shows what the other reading (``per="virtual"``: Table 6 values for the whole
 virtual leg) changes. The body mass and inertia are the whole body's either way.
 """
