@@ -190,45 +190,73 @@ def gait_metrics(result: Result, strides: pd.DataFrame, system: System, *, trans
     return out
 
 
+def _held_integrals(result: Result, info) -> dict:
+    """∫ dt of the drive and battery powers, exact for the controllers' zero-order hold.
+
+    The commands jump at the sample instants, which are output times: an output at t_k holds
+    the new command, the interval's right end the old one. Each interval [t_k, t_k+1] is
+    integrated by the trapezoidal rule between the post-sample value at t_k and the value at
+    t_k+1 evaluated with the command held since t_k (second order, no error at the jumps).
+    """
+    import jax.numpy as jnp
+
+    from ..analyses.result import _outputs_batch
+
+    r = result
+    t = np.asarray(r.t)
+    dt = np.diff(t)
+    post = {k: {f: np.asarray(a) for f, a in v.items()} for k, v in r._element_outputs.items()}
+    pre = _outputs_batch(r.system, r.q[1:], r.v[1:], jnp.asarray(t[1:]), r.z[:-1])
+    pre = {k: {f: np.asarray(a) for f, a in v.items()} for k, v in pre.items()}
+    ja = r.system.topo.extensions
+    names = next(g.names for g in ja if g.kind == "joint_actuator")
+    d = info.drive
+    out = {"battery": 0.0, "battery_internal": 0.0, "hip_work": 0.0, "copper": 0.0, "gear": 0.0}
+
+    def integral(y_post, y_pre):
+        return float(np.sum(0.5 * dt * (y_post[:-1] + y_pre)))
+
+    for leg in LEGS:
+        k = names.index(info.motors[leg])
+        beta = 1.0 if info.variant == "II" else float(d.beta)
+
+        def powers(o):
+            P = o["power"][:, k]
+            i = o["current"][:, k]
+            w_m = o["rate"][:, k] * beta
+            return P, float(d.R_a) * i * i, float(d.K_T) * i * w_m - P
+
+        for key, a, b in zip(("hip_work", "copper", "gear"), powers(post["joint_actuator"]), powers(pre["joint_actuator"])):
+            out[key] += integral(a, b)
+    bp, bq = post["battery"], pre["battery"]
+    out["battery"] = integral(bp["voltage"][:, 0] * bp["current"][:, 0], bq["voltage"][:, 0] * bq["current"][:, 0])
+    out["battery_internal"] = integral(bp["internal_loss"][:, 0], bq["internal_loss"][:, 0])
+    return out
+
+
 def energy_balance(result: Result, info) -> dict:
-    """Energy bookkeeping over a run [J] (trapezoidal quadrature of the outputs, and the
-    integrator's own integrals of input power and dissipation).
+    """Energy bookkeeping over a run [J].
 
     - ``battery``: ∫ V_s i_s dt, delivered at the battery terminals (``battery_internal``:
       ∫ R_s i_s² dt lost inside it);
     - ``hip_work``: ∫ Σ τ φ̇ dt, the drives' work on the legs; ``copper``: ∫ Σ R_a i² dt;
       ``gear``: ∫ Σ (K_T i ω_m − τ φ̇) dt, the transmission losses; battery = hip_work +
-      copper + gear holds to quadrature round-off (K_ω = K_T);
-    - ``input``: the integrator's ∫ (power of every applied load) dt (the hip work, computed
-      step by step), ``dissipated``: its ∫ (dampers, leg, contacts, friction, belt, joint stops),
-      ``mechanical_energy_change``: T + V at the end minus at the start; the closure
-      ``input − dissipated − mechanical_energy_change`` measures the integration error.
+      copper + gear holds to round-off (K_ω = K_T). These are quadratures of the outputs that
+      respect the controllers' zero-order hold (:func:`_held_integrals`).
+    - ``input``: the integrator's ∫ (power of every applied load) dt, step by step (the hip
+      work again, independently), ``dissipated``: its ∫ (leg dampers, toe contacts and
+      friction, extension stops, belt, joint friction) dt, ``mechanical_energy_change``: T + V
+      at the end minus at the start; ``input − dissipated − mechanical_energy_change`` is the
+      integration error.
     """
-    t = np.asarray(result.t)
-    bat = result.element("battery")
-    p_bat = np.asarray(bat.voltage) * np.asarray(bat.current)
-    hip = copper = gear = 0.0
-    for leg in LEGS:
-        a = result.actuator(info.motors[leg])
-        d = info.drive
-        rate = np.asarray(a.rate)
-        w_m = rate if getattr(info, "variant", "I") == "II" else rate * float(d.beta)
-        P = np.asarray(a.power)
-        i = np.asarray(a.current)
-        hip += np.trapezoid(P, t)
-        copper += np.trapezoid(float(d.R_a) * i * i, t)
-        gear += np.trapezoid(float(d.K_T) * i * w_m - P, t)
+    out = _held_integrals(result, info)
     e = result.energy
-    return {
-        "battery": float(np.trapezoid(p_bat, t)),
-        "battery_internal": float(np.trapezoid(np.asarray(bat.internal_loss), t)),
-        "hip_work": float(hip),
-        "copper": float(copper),
-        "gear": float(gear),
-        "input": float(e.input[-1] - e.input[0]),
-        "dissipated": float(e.dissipated[-1] - e.dissipated[0]),
-        "mechanical_energy_change": float((e.kinetic[-1] + e.potential[-1]) - (e.kinetic[0] + e.potential[0])),
-    }
+    out.update(
+        input=float(e.input[-1] - e.input[0]),
+        dissipated=float(e.dissipated[-1] - e.dissipated[0]),
+        mechanical_energy_change=float((e.kinetic[-1] + e.potential[-1]) - (e.kinetic[0] + e.potential[0])),
+    )
+    return out
 
 
 def scout2_bound(model: str = "I", t_end: float = 10.0, *, per: str = "physical", transient: float | None = None, dt_output: float = 1e-3,

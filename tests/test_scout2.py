@@ -1,0 +1,140 @@
+"""Scout II (seed 003): the model, its drives, the bounding run, gait metrics and bookkeeping.
+
+Reduced size here (Model I, 6 s of bounding from the cycle's apex); the full 10 s runs of
+both models, the low-speed runs and the sensitivity table are in ``proleg run scout2-bound``
+and bench/scout2.py.
+"""
+
+import numpy as np
+import pytest
+
+import proleg as pl
+from proleg.drives.dcmotor import DCMotorDrive, delivered_torque, torque_speed_line
+from proleg.errors import ModelError
+from proleg.robots.scout2 import scout2, virtual_drive, Scout2Params
+from proleg.robots.scout2_bound import detect_period, energy_balance, scout2_bound
+from proleg.units import deg
+
+
+@pytest.fixture(scope="module")
+def run_I():
+    return scout2_bound("I", 6.0, transient=3.5)
+
+
+def test_model_is_planar_with_coupler_for_model_II():
+    s1 = pl.assemble(scout2("I"))
+    assert s1.topo.planar[0] is not None, s1.topo.planar[1]
+    m2 = scout2("II")
+    assert [c.name for c in m2.couplers] == ["back_gearbox", "front_gearbox"]
+    s2 = pl.assemble(m2)
+    assert s2.topo.planar[0] is not None, s2.topo.planar[1]
+    np.testing.assert_allclose(np.asarray(s2.params["coupler_ratio"]), 72.38 * 48 / 34)
+
+
+def test_virtual_motor_is_two_motors_in_parallel():
+    """Eqs. 3–4 for the virtual motor: twice one motor's stall torque and slope, and the
+    delivered torque at the current limit is 2 α K_T i_max (both quadrants of the stance line)."""
+    one = DCMotorDrive()
+    two = virtual_drive(Scout2Params())
+    np.testing.assert_allclose(two.tau_max, 2 * one.tau_max, rtol=1e-12)
+    np.testing.assert_allclose(two.A, 2 * one.A, rtol=1e-12)
+    # third quadrant, at rest: the current limit clips Eq. 3 (Eq. 6)
+    out = delivered_torque(two, -1e3, -0.1, battery=False)
+    np.testing.assert_allclose(out.torque, -2 * one.alpha * one.K_T * one.i_max, rtol=1e-12)
+    # third quadrant, fast: on the torque–speed line (Eq. 3) at 36 V
+    w = -7.0
+    out = delivered_torque(two, -1e3, w, battery=False)
+    np.testing.assert_allclose(out.torque, torque_speed_line(two, w), rtol=1e-12)
+    # first quadrant (flight protraction), fast: the mirrored line
+    out = delivered_torque(two, 1e3, -w, battery=False)
+    np.testing.assert_allclose(out.torque, -torque_speed_line(two, w), rtol=1e-12)
+
+
+def test_bounds_steadily_period_one(run_I):
+    m = run_I.metrics
+    assert not m["fell"] and m["status"] == "SUCCESS"
+    assert m["period"] == 1
+    st = run_I.strides
+    v = st["speed [m/s]"].to_numpy()[-5:]
+    assert np.ptp(v) / v.mean() < 0.01  # stride-to-stride speed within 1 % over 5 strides
+    # the gait of a bound: both legs spend less than half a stride on the ground, the pitch
+    # oscillates both ways, the body never sits on the ground
+    assert 0.2 < m["duty_factor_back"] < 0.6 and 0.2 < m["duty_factor_front"] < 0.6
+    assert m["pitch_max"] > 3 and m["pitch_min"] < -3
+    assert 1.0 < m["forward_speed"] < 2.2
+    assert m["height_min"] > 0.25
+
+
+def test_energy_bookkeeping(run_I):
+    e = energy_balance(run_I.result, run_I.info)
+    # battery = hip work + copper + gear losses (an identity of the drive law, K_ω = K_T)
+    closure = e["battery"] - (e["hip_work"] + e["copper"] + e["gear"])
+    assert abs(closure) < 1e-3 * e["battery"], e
+    # hip work computed by quadrature of the outputs equals the integrator's own integral
+    assert abs(e["hip_work"] - e["input"]) < 1e-3 * e["battery"], e
+    # mechanical work = ΔE + dissipation (legs, contacts, friction, stops) within the integrator's error
+    mech = e["input"] - e["dissipated"] - e["mechanical_energy_change"]
+    assert abs(mech) < 1e-3 * e["battery"], e
+    assert e["copper"] > 0 and e["gear"] > 0 and e["dissipated"] > 0
+
+
+def test_battery_outputs_are_shared(run_I):
+    r = run_I.result
+    bat = r.element("battery")
+    i_b = r.actuator("back_motor").supply_current + r.actuator("front_motor").supply_current
+    np.testing.assert_allclose(bat.current, i_b, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(bat.voltage, 37.17 - 0.13 * bat.current, rtol=1e-9)
+    assert bat.voltage.min() < 35.0  # the pack sags under two saturated drives
+
+
+def test_controller_states_follow_the_gait(run_I):
+    r = run_I.result
+    for leg in ("back", "front"):
+        st = r.controller(f"{leg}_controller").state[:, 0]
+        assert set(np.unique(st)) == {0.0, 1.0, 2.0}
+        on = r.contact(f"{leg}_toe_contact").normal_force > 0
+        # while the controller is in flight the toe is (almost always) off the ground
+        assert np.mean(on[st == 0]) < 0.1
+        # the stop reports its contact-like outputs
+        stop = r.force(f"{leg}_stop")
+        assert set(np.unique(stop.in_contact)) <= {0.0, 1.0}
+
+
+def test_detect_period_on_synthetic_sequences():
+    rng = np.random.default_rng(0)
+    base = np.array([0.27, 1.5, 18.0])
+    one = base * (1 + 0.002 * rng.standard_normal((10, 3)))
+    assert detect_period(one) == 1
+    two = np.array([base * (1.15 if k % 2 else 0.87) for k in range(10)]) * (1 + 0.002 * rng.standard_normal((10, 3)))
+    assert detect_period(two) == 2
+    drift = base * np.linspace(0.7, 1.3, 10)[:, None]
+    assert detect_period(drift) == 0
+    assert detect_period(one[:3]) == 0  # too few strides
+    assert detect_period(np.full((8, 3), np.nan)) == 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("factor", [0.8, 1.2])
+def test_initial_pitch_rate_robustness(factor):
+    """Initial pitch rate ±20 %: the same period-one gait (speed within 1 %)."""
+    ref = scout2_bound("I", 8.0)
+    run = scout2_bound("I", 8.0, system=ref.system, pitch_rate=2.16 * factor)
+    assert run.metrics["period"] == 1
+    np.testing.assert_allclose(run.metrics["forward_speed"], ref.metrics["forward_speed"], rtol=0.01)
+
+
+def test_bad_input():
+    with pytest.raises(ModelError, match="touchdown_front = 75.0° is outside"):
+        scout2("I", touchdown_front=75 * deg)
+    with pytest.raises(ModelError, match="leg_stiffness must be positive"):
+        scout2("I", leg_stiffness=-3520.0)
+    with pytest.raises(ModelError, match="R_s must be non-negative"):
+        scout2("I", R_s=-0.13)
+    with pytest.raises(ModelError, match="Battery 'b' R_s must be non-negative"):
+        pl.Battery("b", R_s=-1.0)
+    with pytest.raises(ModelError, match="model must be 'I' or 'II'"):
+        scout2("III")
+    with pytest.raises(ModelError, match="unknown parameter"):
+        scout2("I", leg_stifness=3000.0)
+    with pytest.raises(ModelError, match="sweep_back .* must be below touchdown_back"):
+        scout2("I", sweep_back=25 * deg)
