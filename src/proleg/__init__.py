@@ -135,3 +135,4 @@ from .model.control import StateMachine as StateMachine
 from .model.forces import RotationalBacklash as RotationalBacklash
 from .model.flexible import FlexibleBody as FlexibleBody
 from . import robots as robots
+from . import study as study
