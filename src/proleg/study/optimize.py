@@ -86,7 +86,9 @@ def optimize(study, objective, constraints=None, n_trials: int = 50, *, sampler=
         for name in constraints:
             if name not in study.outputs:
                 raise ModelError(f"optimize: constraint on '{name}', which is not an output; outputs: {list(study.outputs)}.")
-    cf = (lambda t: t.user_attrs.get("constraints", [0.0])) if constraints is not None else None
+    # optuna ≥ 5 reads constraints set on the trial (set_constraint); older ones a constraints_func
+    new_api = hasattr(optuna.trial.Trial, "set_constraint")
+    cf = (lambda t: t.user_attrs.get("constraints", [0.0])) if constraints is not None and not new_api else None
     if isinstance(sampler, str):
         if sampler == "tpe":
             smp = optuna.samplers.TPESampler(seed=seed, constraints_func=cf, n_startup_trials=min(10, max(2, n_trials // 3)))
@@ -138,7 +140,11 @@ def optimize(study, objective, constraints=None, n_trials: int = 50, *, sampler=
                 ost.tell(t, state=TS.FAIL)
                 continue
             if constraints is not None:
-                t.set_user_attr("constraints", _constraint_values(constraints, row))
+                cv = _constraint_values(constraints, row)
+                t.set_user_attr("constraints", cv)
+                if new_api:
+                    for ci, c in enumerate(cv):
+                        t.set_constraint(f"c{ci}", c)
             ost.tell(t, vals if len(vals) > 1 else vals[0])
         pending = []
     rows = pd.concat(all_rows, ignore_index=True) if all_rows else pd.DataFrame()
