@@ -146,7 +146,7 @@ def run(
 
 
 def _register_optional():
-    for modname in ("proleg.cli.prbm", "proleg.cli.identify"):
+    for modname in ("proleg.cli.prbm", "proleg.cli.identify", "proleg.cli.study"):
         try:
             mod = __import__(modname, fromlist=["register"])
         except ImportError as exc:  # pragma: no cover - a broken optional module must not kill the CLI
