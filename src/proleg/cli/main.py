@@ -18,6 +18,7 @@ SCENARIOS = {
     "hyq-drop": ("proleg.robots.hyq_tests", "run_drop", "HyQ leg drop test: rigid vs 4 vs 8 bushings, HTML report (main job)"),
     "hyq-static": ("proleg.robots.hyq_tests", "run_static", "HyQ leg static test, payload 0/3/7 kg"),
     "hyq-quasistatic": ("proleg.robots.hyq_tests", "run_quasistatic", "HyQ leg quasi-static cycles: force-stroke loops"),
+    "hyq-bushing-study": ("proleg.robots.hyq_study", "run_bushing_study", "HyQ 8-bushing drop vs pin stiffness 1e6-1e10 N/m: proleg.study store + HTML report"),
 }
 
 
