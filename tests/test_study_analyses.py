@@ -95,3 +95,18 @@ def test_gradient_refinement_improves_on_its_start(system):
     ref = st.refine({"spring.stiffness": 550.0}, "miss", maxiter=15)
     assert ref["value"] < 1e-3 * ref["start_value"]
     assert ref["params"]["spring.stiffness"] == pytest.approx(400.0, rel=2e-2)
+
+
+@pytest.mark.slow
+def test_study_sobol_runs_through_the_store_and_the_report(system, tmp_path):
+    # damping over a 2e-5 wide range cannot move x_end: all the variance is the stiffness's
+    st = pl.study.Study(system, space={"spring.stiffness": (10.0, 1000.0), "spring.damping": (0.5, 0.50001)},
+                        outputs={"x_end": x_end}, simulate=KW)
+    si = st.sobol(16, seed=1, store=tmp_path / "s", workers=1).set_index("parameter")
+    assert si.loc["spring.damping", "ST"] < 1e-3 and abs(si.loc["spring.damping", "S1"]) < 1e-3
+    assert si.loc["spring.stiffness", "ST"] == pytest.approx(1.0, abs=0.2)
+    assert len(pl.study.Store(tmp_path / "s").read()) == 16 * 4
+    from proleg.study.report import study_report
+
+    html = study_report(tmp_path / "s").read_text()
+    assert "Sobol" in html and html.count("<img") >= 3

@@ -110,7 +110,7 @@ def evaluate_batch(job: Job, rows: list[tuple[str, dict]], *, workers: int = 1, 
             names = sorted(base.params)
             params = {k: np.stack([np.asarray(m[2].params[k]) for m in members]) for k in names}
         else:
-            params = {k: np.array([float(m[1][k]) for m in members]) for k in job.names}
+            params = {k: np.stack([np.asarray(m[1][k], float) for m in members]) for k in job.names}
         try:
             res = sweep(base, params, workers=workers, batch_size=batch_size, apply=job.apply, **job.simulate_kw)
             err = None

@@ -268,5 +268,3 @@ def _progress(progress, total, label):
     return _Bar(total, label) if show else None
 
 
-def finite(x) -> bool:
-    return x is not None and isinstance(x, (int, float)) and math.isfinite(x)
