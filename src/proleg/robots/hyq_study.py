@@ -62,6 +62,9 @@ def run_bushing_study(out_dir="results/hyq-bushing-study", progress: bool = True
 
     out = Path(out_dir)
     study = bushing_study()
+    # One batch at a time: two concurrent vmap batches of this model hung (every thread waiting
+    # on a futex, no CPU) in sweep's threaded path on the 2-core VM; one batch runs.
+    run_kw.setdefault("workers", 1)
     table = study.run(design="grid", n=n, executor=executor, store=out, progress=progress, **run_kw)
     table.to_csv(out / "table.csv", index=False)
     return study_report(out, out / "report.html")
