@@ -16,7 +16,6 @@ import math
 import os
 import socket
 import time
-import traceback
 import uuid
 
 import numpy as np
@@ -116,11 +115,10 @@ def evaluate_batch(job: Job, rows: list[tuple[str, dict]], *, workers: int = 1, 
             err = None
         except Exception as exc:  # the whole group failed (compilation, bad options): rows say why
             res, err = None, f"{type(exc).__name__}: {exc}"
-            tb = traceback.format_exc(limit=3)
         for i, (key, vals, _) in enumerate(members):
             row = _row(key, vals, batch, worker)
             if res is None:
-                row.update({k: math.nan for k in job.outputs}, status="error", reason=err or tb)
+                row.update({k: math.nan for k in job.outputs}, status="error", reason=err)
                 row.update(steps=0, newton_iterations=0, fail_time=math.nan)
             else:
                 vals_out, status, reason = _outputs_of(job, res, i)
