@@ -139,3 +139,4 @@ from .model.couplers import JointFriction as JointFriction
 from .model.forces import RotationalBacklash as RotationalBacklash
 from .model.flexible import FlexibleBody as FlexibleBody
 from . import robots as robots
+from . import study as study

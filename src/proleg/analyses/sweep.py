@@ -81,6 +81,7 @@ class SweepResult:
         self.stats = {k: st[:, i] for i, k in enumerate(("steps", "rejected", "newton_iterations", "jacobians"))}
         self.integrator, self.coordinates = integrator, coordinates
         self.wall_time = self.compile_time = None
+        self.apply = System.with_params  # how a variant's values become its System (sweep's apply)
 
     def __len__(self):
         return len(self.status)
@@ -91,8 +92,8 @@ class SweepResult:
         return np.array([s == Status.SUCCESS for s in self.status])
 
     def system_of(self, i: int) -> System:
-        """The i-th variant's System (``system.with_params`` of its values)."""
-        return self.system.with_params({k: v[i] for k, v in self.values.items()})
+        """The i-th variant's System (``system.with_params`` of its values, or sweep's ``apply``)."""
+        return self.apply(self.system, {k: v[i] for k, v in self.values.items()})
 
     def __getitem__(self, i: int) -> Result:
         """The i-th variant as an ordinary Result (outputs up to its failure time, if it failed)."""
@@ -129,7 +130,7 @@ class SweepResult:
         return pd.concat(frames, ignore_index=True)
 
 
-def _values(system: System, params: dict) -> tuple[dict, int]:
+def _values(system: System, params: dict, apply=None) -> tuple[dict, int]:
     """Checked {name: (n, *shape) float array} and n."""
     if not params:
         raise ModelError("sweep: no parameters to sweep. Pass e.g. {'spring.stiffness': [10.0, 100.0]}.")
@@ -146,13 +147,13 @@ def _values(system: System, params: dict) -> tuple[dict, int]:
             raise ModelError(f"sweep: parameter '{name}' has {arr.shape[0]} values but the others have {n}; give one value per variant.")
         out[name] = arr
     # Every name and per-variant shape is checked by with_params itself (it names the element).
-    system.with_params({k: v[0] for k, v in out.items()})
+    (apply or System.with_params)(system, {k: v[0] for k, v in out.items()})
     return out, n
 
 
 def sweep(
     system: System, params: dict, t_end: float, dt_output: float | None = None, *, batch_size: int | None = None,
-    workers: int | None = None, **simulate_kw,
+    workers: int | None = None, apply=None, **simulate_kw,
 ) -> SweepResult:
     """Simulate one variant of ``system`` per row of ``params`` ({name: values}, the names of
     ``system.with_params``, each with one value per variant), all in one compiled ``jax.vmap``
@@ -163,12 +164,15 @@ def sweep(
     ``CPU_BATCH_CAP`` (256) variants on the CPU, ``ACCEL_BATCH_CAP`` (25,000) on a GPU
     (:func:`default_batch_size`). Other keywords go to :func:`proleg.simulate` (tolerances,
     ``fixed_step``, ``coordinates``, ...). A variant that fails is reported in
-    ``status`` with the time it stopped; the others are unaffected.
+    ``status`` with the time it stopped; the others are unaffected. ``apply(system, values)``
+    (traceable; default ``System.with_params``) maps a variant's values to its System, for
+    parameters that are functions of the swept ones (proleg.study uses it).
     """
     import time
     from concurrent.futures import ThreadPoolExecutor
 
-    values, n = _values(system, params)
+    values, n = _values(system, params, apply)
+    apply = apply or System.with_params
     workers = default_workers() if workers is None else workers
     if not isinstance(workers, int) or isinstance(workers, bool) or workers < 1:
         raise ValueError(f"sweep: workers must be a positive integer (got {workers!r}).")
@@ -186,7 +190,7 @@ def sweep(
 
     def one(vals):
         res = simulate(
-            system.with_params(dict(zip(names, vals))), t_end, dt_output, progress=False, throw=False,
+            apply(system, dict(zip(names, vals))), t_end, dt_output, progress=False, throw=False,
             chunk=1_000_000, free_running=True, lu_per_lane=concurrent, **simulate_kw,
         )
         meta["t"], meta["integrator"], meta["coordinates"] = res.t, res.integrator, res.coordinates
@@ -216,5 +220,6 @@ def sweep(
     wall = time.perf_counter() - t0
     q, v, w, z, status, ft, stats = (np.concatenate(p, 0) for p in zip(*parts))
     res = SweepResult(system, values, meta["t"], q, v, w, z, status, ft, stats, meta["integrator"], meta["coordinates"])
+    res.apply = apply
     res.wall_time, res.compile_time = wall, t_compile
     return res

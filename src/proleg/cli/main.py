@@ -19,6 +19,7 @@ SCENARIOS = {
     "hyq-static": ("proleg.robots.hyq_tests", "run_static", "HyQ leg static test, payload 0/3/7 kg"),
     "hyq-quasistatic": ("proleg.robots.hyq_tests", "run_quasistatic", "HyQ leg quasi-static cycles: force-stroke loops"),
     "scout2-bound": ("proleg.robots.scout2_report", "run_bound", "Scout II bounding: Model I vs Model II, low speed, gait metrics, HTML report"),
+    "hyq-bushing-study": ("proleg.robots.hyq_study", "run_bushing_study", "HyQ 8-bushing drop vs pin stiffness 1e6-1e10 N/m: proleg.study store + HTML report"),
 }
 
 
@@ -147,7 +148,7 @@ def run(
 
 
 def _register_optional():
-    for modname in ("proleg.cli.prbm", "proleg.cli.identify"):
+    for modname in ("proleg.cli.prbm", "proleg.cli.identify", "proleg.cli.study"):
         try:
             mod = __import__(modname, fromlist=["register"])
         except ImportError as exc:  # pragma: no cover - a broken optional module must not kill the CLI

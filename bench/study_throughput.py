@@ -1,0 +1,86 @@
+"""Throughput of one proleg.study design (variants/s) by executor: a loop of sequential
+``simulate()`` calls, ``vmap`` (proleg.sweep batches in this process), ``processes`` (2 local
+worker processes) and ``dask`` (LocalCluster, 2 single-threaded workers).
+
+    PYTHONPATH=src python bench/study_throughput.py --model pendulum --n 64
+    PYTHONPATH=src python bench/study_throughput.py --model hyq --n 1000      # the issue's case (long)
+
+Every executor starts from an empty store (wall time includes compilation and, for processes
+and dask, starting the workers); the persistent compilation cache is on, as for a user.
+Writes bench/results/study_throughput_<model>_<n>.csv.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+import pandas as pd
+
+import proleg as pl
+
+
+def pendulum_study():
+    m = pl.Model("bench_pendulum", gravity=(0, 0, -9.81))
+    up = m.add_part("upper", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(0.5, 0, 0))
+    lo = m.add_part("lower", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(1.5, 0, 0))
+    m.add_joint(pl.Revolute("shoulder", m.ground, up, at=(0, 0, 0), axis=(0, 1, 0)))
+    m.add_joint(pl.Revolute("elbow", up, lo, at=(1, 0, 0), axis=(0, 1, 0)))
+    tip = m.add_marker(lo, "tip", position=(2, 0, 0))
+    anchor = m.add_marker(m.ground, "anchor", position=(2, 0, -1))
+    m.add_force(pl.SpringDamper("spring", tip, anchor, stiffness=50.0, damping=0.5, free_length=1.0))
+    return pl.study.Study(pl.assemble(m), space={"spring.stiffness": (10.0, 1000.0), "spring.damping": (0.1, 1.0)},
+                          outputs={"x_end": _x_end}, simulate=dict(t_end=1.0, dt_output=0.01))
+
+
+def _x_end(r):
+    return r.part("lower").position[-1, 0]
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--model", choices=["pendulum", "hyq"], default="pendulum")
+    ap.add_argument("--n", type=int, default=64)
+    ap.add_argument("--executors", default="sequential,vmap,processes,dask")
+    args = ap.parse_args()
+    if args.model == "hyq":
+        from proleg.robots.hyq_study import bushing_study
+
+        study = bushing_study()
+    else:
+        study = pendulum_study()
+    rows = []
+    for ex in args.executors.split(","):
+        store = Path(tempfile.mkdtemp(prefix=f"study-{ex}-"))
+        t0 = time.perf_counter()
+        if ex == "sequential":
+            from proleg.assembly.system import System
+
+            table = study.design("lhs", args.n, seed=1)
+            apply = study.apply or System.with_params
+            ok = 0
+            for r in table.to_dict("records"):
+                res = pl.simulate(apply(study.target, {k: r[k] for k in study.space.dims}), progress=False, throw=False, **study.simulate)
+                ok += res.ok
+        else:
+            tab = study.run(design="lhs", n=args.n, seed=1, executor=ex, store=store, workers=None if ex == "vmap" else 2, progress=False)
+            ok = int((tab["status"] == "success").sum())
+        wall = time.perf_counter() - t0
+        shutil.rmtree(store, ignore_errors=True)
+        rows.append({"executor": ex, "variants": args.n, "succeeded": ok, "wall [s]": wall, "variants/s": args.n / wall})
+        print(rows[-1], flush=True)
+    df = pd.DataFrame(rows)
+    df.attrs["machine"] = f"{platform.node()} {os.cpu_count()} cores"
+    print(df.to_string(index=False))
+    out = Path(__file__).parent / "results" / f"study_throughput_{args.model}_{args.n}.csv"
+    df.to_csv(out, index=False)
+    print(f"wrote {out} ({platform.processor() or platform.machine()}, {os.cpu_count()} cores)")
+
+
+if __name__ == "__main__":
+    main()

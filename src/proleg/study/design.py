@@ -1,0 +1,89 @@
+"""Designs of experiments over a :class:`~proleg.study.space.Space`.
+
+- ``"grid"``: full factorial; ``n`` levels per continuous dimension (log-spaced for a
+  :class:`LogRange`), every value of a :class:`Choice`.
+- ``"lhs"``: Latin hypercube (``scipy.stats.qmc.LatinHypercube``, scrambled, seeded): each of
+  the ``n`` equal strata of every dimension holds exactly one point.
+- ``"sobol"``: scrambled Sobol' sequence (``scipy.stats.qmc.Sobol``, seeded); balanced for
+  ``n`` a power of two (a warning otherwise).
+- ``"table"``: the rows the user gives (a DataFrame, a {name: values} dict, a CSV or Parquet path).
+A choice gets the stratum ``floor(u k)`` of a unit-cube sample, so LHS keeps the choices balanced.
+"""
+
+from __future__ import annotations
+
+import itertools
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..errors import DataError, ModelError
+from .space import Fixed, Space
+
+DESIGNS = ("grid", "lhs", "sobol", "table")
+
+
+def unit_samples(kind: str, d: int, n: int, seed: int | None) -> np.ndarray:
+    """(n, d) points in [0, 1)^d of a Latin hypercube or a scrambled Sobol' sequence."""
+    from scipy.stats import qmc
+
+    if kind == "lhs":
+        return qmc.LatinHypercube(d=d, scramble=True, seed=seed).random(n)
+    m = int(np.log2(n))
+    sob = qmc.Sobol(d=d, scramble=True, seed=seed)
+    if 2**m == n:
+        return sob.random_base2(m)
+    warnings.warn(f"Study: a Sobol' design is balanced for n a power of two; n = {n} is not (use {2 ** (m + 1)}).", stacklevel=3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return sob.random(n)
+
+
+def make_design(space: Space, design="lhs", n: int | None = None, seed: int | None = 0) -> pd.DataFrame:
+    """The design's rows: one column per parameter of ``space`` (fixed ones repeated), in order.
+
+    ``design`` is one of :data:`DESIGNS` or directly a table (DataFrame, dict or path).
+    """
+    if not isinstance(design, str):
+        return _table(space, design)
+    if design not in DESIGNS[:3]:
+        if Path(design).suffix in (".csv", ".parquet"):
+            return _table(space, design)
+        raise ModelError(f"Study: unknown design '{design}'; valid: {list(DESIGNS[:3])}, or a table (DataFrame, dict, CSV/Parquet path).")
+    if design == "grid":
+        if n is None or int(n) < 1:
+            raise ModelError(f"Study: a grid design needs n ≥ 1 levels per continuous dimension (got n = {n!r}).")
+        axes = [d.grid(int(n)) if not isinstance(d, Fixed) else [d.value] for d in space.dims.values()]
+        rows = list(itertools.product(*axes))
+        return pd.DataFrame(rows, columns=list(space.dims))
+    if n is None or int(n) < 1:
+        raise ModelError(f"Study: design size n must be ≥ 1 (got n = {n!r}).")
+    sampled = space.sampled
+    u = unit_samples(design, len(sampled), int(n), seed) if sampled else np.zeros((int(n), 0))
+    return pd.DataFrame(space.from_unit(u))
+
+
+def _table(space: Space, table) -> pd.DataFrame:
+    if table is None:
+        raise ModelError("Study: design 'table' needs the table: run(design=df) or run(design='table', n=df).")
+    if isinstance(table, (str, Path)):
+        p = Path(table)
+        if not p.exists():
+            raise DataError(f"Study: design table '{p}' does not exist.")
+        df = pd.read_parquet(p) if p.suffix == ".parquet" else pd.read_csv(p)
+    else:
+        df = pd.DataFrame(table)
+    if len(df) == 0:
+        raise ModelError("Study: the design table has no rows (design size 0).")
+    unknown = [c for c in df.columns if c not in space.dims]
+    if unknown:
+        raise DataError(f"Study: design table columns {unknown} are not in the space {list(space.dims)}.")
+    missing = [k for k in space.sampled if k not in df.columns]
+    if missing:
+        raise DataError(f"Study: design table lacks columns {missing} (the space's varied parameters).")
+    out = pd.DataFrame(index=range(len(df)))
+    for k, d in space.dims.items():
+        out[k] = df[k].to_numpy() if k in df.columns else [d.value] * len(df)
+    return out

@@ -1,0 +1,213 @@
+"""Where a study's batches run: ``"vmap"`` (this process, through :func:`proleg.sweep`),
+``"processes"`` (local worker processes) and ``"dask"`` (a ``distributed`` cluster).
+
+A batch is evaluated by :func:`evaluate_batch` wherever it runs: the variants go through
+:func:`proleg.sweep` in one compiled ``vmap`` batch (a builder's variants grouped by compiled
+shape, one sweep per group), each output function is applied to each variant's Result, and
+every variant comes back as a row, also when its simulation, its build or an output failed
+(``status`` and ``reason`` say what). Rows are written to the store by the driver only, as each
+batch comes back: a batch lost with a killed worker is run again, never written twice.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import socket
+import time
+import uuid
+
+import numpy as np
+
+from ..errors import ModelError, Status
+
+DEFAULT_TIMEOUT_S = 10.0  # connecting to a scheduler address
+
+
+class Job:
+    """What a worker needs to evaluate a batch (pickled with cloudpickle)."""
+
+    def __init__(self, target, is_builder, names, outputs, simulate_kw, apply=None):
+        self.target, self.is_builder, self.names = target, is_builder, list(names)
+        self.outputs, self.simulate_kw, self.apply = dict(outputs), dict(simulate_kw), apply
+
+
+def _worker_name() -> str:
+    try:
+        from distributed import get_worker
+
+        return str(get_worker().address)
+    except (ImportError, ValueError):
+        return f"{socket.gethostname()}:{os.getpid()}"
+
+
+def _shape_key(system) -> str:
+    """Systems with equal keys share one compiled simulation (same topology and array shapes)."""
+    import cloudpickle
+
+    h = hashlib.sha1()
+    try:
+        h.update(cloudpickle.dumps(system.topo))
+    except Exception:  # an unpicklable topology: group by identity only
+        h.update(str(id(system.topo)).encode())
+    for k in sorted(system.params):
+        h.update(f"{k}{tuple(np.shape(system.params[k]))}".encode())
+    return h.hexdigest()
+
+
+def _row(key, vals, batch, worker):
+    return {"key": key, **{k: (v if isinstance(v, str) else _num(v)) for k, v in vals.items()}, "batch": batch, "worker": worker}
+
+
+def _num(v):
+    a = np.asarray(v, float)
+    return float(a) if a.ndim == 0 else a.tolist()
+
+
+def _outputs_of(job, res, i) -> tuple[dict, str, str]:
+    """({output: value}, status, reason) of variant i of a SweepResult."""
+    st = res.status[i]
+    nan = {k: math.nan for k in job.outputs}
+    if st != Status.SUCCESS:
+        return nan, st.name.lower(), f"{st.describe()} at t = {res.fail_time[i]:.6g} s"
+    r = res[i]
+    out, status, reason = {}, "success", ""
+    for name, fn in job.outputs.items():
+        try:
+            val = np.asarray(fn(r), float)
+            if val.size != 1:
+                raise ModelError(f"output '{name}' returned shape {val.shape}; an output must be one number (use e.g. .max() or [-1]).")
+            out[name] = float(val.reshape(()))
+        except Exception as exc:  # the row records the error; the study goes on
+            out[name] = math.nan
+            status = "output_error"
+            reason += f"{name}: {type(exc).__name__}: {exc}; "
+    return out, status, reason.rstrip("; ")
+
+
+def evaluate_batch(job: Job, rows: list[tuple[str, dict]], *, workers: int = 1, batch_size: int | None = None) -> list[dict]:
+    """Simulate ``rows`` ([(key, {name: value})]) and return one row dict per variant."""
+    from ..analyses.sweep import sweep
+
+    batch, worker = uuid.uuid4().hex[:12], _worker_name()
+    t0 = time.perf_counter()
+    out: dict[str, dict] = {}
+    groups: dict[str, tuple] = {}
+    if job.is_builder:
+        for key, vals in rows:
+            try:
+                system = job.target(**vals)
+                groups.setdefault(_shape_key(system), (system, []))[1].append((key, vals, system))
+            except Exception as exc:
+                out[key] = {**_row(key, vals, batch, worker), **{k: math.nan for k in job.outputs},
+                            "status": "build_error", "reason": f"{type(exc).__name__}: {exc}"}
+    else:
+        groups["system"] = (job.target, [(key, vals, None) for key, vals in rows])
+    for base, members in groups.values():
+        if job.is_builder:
+            names = sorted(base.params)
+            params = {k: np.stack([np.asarray(m[2].params[k]) for m in members]) for k in names}
+        else:
+            params = {k: np.stack([np.asarray(m[1][k], float) for m in members]) for k in job.names}
+        try:
+            res = sweep(base, params, workers=workers, batch_size=batch_size, apply=job.apply, **job.simulate_kw)
+            err = None
+        except Exception as exc:  # the whole group failed (compilation, bad options): rows say why
+            res, err = None, f"{type(exc).__name__}: {exc}"
+        for i, (key, vals, _) in enumerate(members):
+            row = _row(key, vals, batch, worker)
+            if res is None:
+                row.update({k: math.nan for k in job.outputs}, status="error", reason=err)
+                row.update(steps=0, newton_iterations=0, fail_time=math.nan)
+            else:
+                vals_out, status, reason = _outputs_of(job, res, i)
+                row.update(vals_out, status=status, reason=reason)
+                row.update(steps=int(res.stats["steps"][i]), newton_iterations=int(res.stats["newton_iterations"][i]),
+                           fail_time=float(res.fail_time[i]))
+            out[key] = row
+    wall = time.perf_counter() - t0
+    rows_out = [out[key] for key, _ in rows]
+    for r in rows_out:
+        r["wall_s"] = wall / max(1, len(rows))  # the batch's wall time (compilation included) per variant
+        r.setdefault("steps", 0)
+        r.setdefault("newton_iterations", 0)
+        r.setdefault("fail_time", math.nan)
+        r["finished_at"] = time.time()
+    return rows_out
+
+
+def run_payload(payload: bytes) -> list[dict]:
+    """Worker entry point of the "processes" and "dask" executors: (job, rows) pickled."""
+    import cloudpickle
+
+    job, rows = cloudpickle.loads(payload)
+    return evaluate_batch(job, rows)
+
+
+# ------------------------------------------------------------------------------------------
+# drivers: each yields the rows of each finished batch
+# ------------------------------------------------------------------------------------------
+def run_vmap(job, batches, *, workers):
+    """In this process: ``workers`` batches at a time through one :func:`sweep` call."""
+    for g in range(0, len(batches), workers):
+        group = batches[g : g + workers]
+        bs = max(len(b) for b in group)
+        rows = [r for b in group for r in b]
+        yield evaluate_batch(job, rows, workers=min(workers, len(group)), batch_size=bs)
+
+
+def run_processes(job, batches, *, workers, retries: int = 2):
+    """Local worker processes (spawned: JAX is not fork-safe). A pool broken by a killed
+    worker is restarted and the batches not yet returned are run again (``retries`` times)."""
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures.process import BrokenProcessPool
+
+    import cloudpickle
+
+    pending = dict(enumerate(batches))
+    for attempt in range(retries + 1):
+        if not pending:
+            return
+        try:
+            with ProcessPoolExecutor(max_workers=min(workers, len(pending)), mp_context=mp.get_context("spawn")) as pool:
+                futs = {pool.submit(run_payload, cloudpickle.dumps((job, b))): i for i, b in pending.items()}
+                for f in as_completed(futs):
+                    rows = f.result()
+                    del pending[futs[f]]
+                    yield rows
+        except BrokenProcessPool:
+            if attempt == retries:
+                raise ModelError(f"Study: the worker processes died {retries + 1} times; {len(pending)} batches were not run (they stay pending in the store).") from None
+
+
+def connect(scheduler=None, *, workers: int = 2, timeout_s: float = DEFAULT_TIMEOUT_S):
+    """A ``distributed.Client``: to ``scheduler`` (address or Client), or to a new
+    LocalCluster of ``workers`` single-threaded worker processes. Returns (client, owned)."""
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError as exc:  # pragma: no cover
+        raise ModelError("Study: executor 'dask' needs dask[distributed]: pip install 'proleg[study]'.") from exc
+    if scheduler is not None and not isinstance(scheduler, str):
+        return scheduler, False
+    if scheduler:
+        try:
+            return Client(scheduler, timeout=f"{timeout_s}s"), True
+        except (OSError, TimeoutError) as exc:
+            raise ModelError(
+                f"Study: no Dask scheduler answered at '{scheduler}' within {timeout_s:g} s ({type(exc).__name__}). "
+                "Start one (`dask scheduler` and `dask worker ADDRESS`), check the address, or leave the scheduler out for a LocalCluster."
+            ) from None
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
+    return Client(cluster), True
+
+
+def run_dask(job, batches, *, client):
+    """Each batch a Dask task; a task lost with a worker is rescheduled by Dask."""
+    import cloudpickle
+    from distributed import as_completed
+
+    futs = [client.submit(run_payload, cloudpickle.dumps((job, b)), pure=False) for b in batches]
+    for f in as_completed(futs):
+        yield f.result()

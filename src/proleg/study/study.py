@@ -1,0 +1,269 @@
+"""``Study``: a design of experiments over one System (or a builder of Systems), run in
+batches on an executor, stored row by row in a resumable Parquet store.
+
+Example::
+
+    study = pl.study.Study(system, space={"spring.stiffness": (10.0, 1000.0), "spring.damping": [0.1, 0.5, 1.0]},
+                           outputs={"x_end": lambda r: r.part("lower").position[-1, 0]},
+                           simulate=dict(t_end=1.0, dt_output=0.01))
+    table = study.run(design="lhs", n=64, seed=1, executor="vmap", store="results/my-study")
+
+``table`` has one row per variant: ``key`` (hash of the parameter values), the parameters,
+the outputs, ``status`` ("success", the solver's status such as "step_too_small",
+"output_error", "build_error" or "error") with ``reason``, ``wall_s`` (the batch's wall time
+per variant [s], its compilation included), ``steps``, ``newton_iterations``, ``fail_time`` [s],
+``worker`` and ``batch``. Rerunning with the same store skips every variant already stored.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import inspect
+import sys
+import time
+
+import numpy as np
+import pandas as pd
+
+from ..assembly.system import System
+from ..errors import ModelError
+from . import executors as ex
+from .design import make_design
+from .space import Choice, Fixed, Space
+from .store import Store, variant_key
+
+EXECUTORS = ("vmap", "processes", "dask")
+RESERVED = ("key", "status", "reason", "wall_s", "worker", "batch", "steps", "newton_iterations", "fail_time", "finished_at")
+
+
+def code_hash(fn) -> str:
+    """A stable hash of a function's code (bytecode, constants, names), for the definition."""
+    h = hashlib.sha1()
+
+    def add(code):
+        h.update(code.co_code)
+        h.update(repr(code.co_names).encode())
+        for c in code.co_consts:
+            add(c) if inspect.iscode(c) else h.update(repr(c).encode())
+
+    code = getattr(fn, "__code__", None)
+    if code is None:
+        h.update(repr(fn).encode())
+    else:
+        add(code)
+    return h.hexdigest()[:12]
+
+
+def system_fingerprint(system: System) -> dict:
+    """Model name, sizes and a hash of every parameter array."""
+    h = hashlib.sha1()
+    for k in sorted(system.params):
+        h.update(k.encode())
+        h.update(np.ascontiguousarray(np.asarray(system.params[k], float)).tobytes())
+    return {"model": system.topo.name, "nq": int(system.nq), "nc": int(system.nc), "params_sha1": h.hexdigest()[:16]}
+
+
+class Study:
+    """A design study of ``system_or_builder`` over ``space`` with named scalar ``outputs``.
+
+    Parameters
+    ----------
+    system_or_builder : System, or a function of the space's parameters (keywords) returning a
+        System (for what changes topology or shape; variants are grouped by compiled shape)
+    space : {name: (lo, hi) | LogRange(lo, hi) | [choices] | fixed value}; names of
+        ``system.with_params`` (or the builder's keywords)
+    outputs : {name: function(Result) -> float}; an output that raises is recorded in its row
+        (status "output_error") and the study goes on
+    simulate : keywords of :func:`proleg.simulate` (``t_end`` required)
+    apply : optional traceable ``apply(system, {name: value}) -> System`` mapping the parameters
+        to the System (default ``System.with_params``), for derived parameters
+    """
+
+    def __init__(self, system_or_builder, space, outputs, simulate=None, *, apply=None, name: str | None = None):
+        self.target = system_or_builder
+        self.is_builder = not isinstance(system_or_builder, System)
+        if self.is_builder and not callable(system_or_builder):
+            raise ModelError(f"Study: expected a System or a builder function; got {type(system_or_builder).__name__}.")
+        self.space = Space(space)
+        self.apply = apply
+        if not self.is_builder and apply is None:
+            self.space.check_names(system_or_builder.param_names(), f"model '{system_or_builder.topo.name}'")
+            for k, d in self.space.dims.items():
+                vals = d.values if isinstance(d, Choice) else ([d.value] if isinstance(d, Fixed) else [])
+                if any(isinstance(v, str) for v in vals):
+                    raise ModelError(f"Study: '{k}' has text values {list(vals)}; a System parameter takes numbers (text choices need a builder).")
+        if not isinstance(outputs, dict) or not outputs:
+            raise ModelError("Study: give at least one output, e.g. outputs={'x_end': lambda r: r.part('lower').position[-1, 0]}.")
+        for k, fn in outputs.items():
+            if not callable(fn):
+                raise ModelError(f"Study: output '{k}' is not a function of the Result (got {type(fn).__name__}).")
+            if k in RESERVED or k in self.space.dims:
+                raise ModelError(f"Study: output name '{k}' clashes with a column ({'reserved' if k in RESERVED else 'a parameter'}); rename it.")
+        self.outputs = dict(outputs)
+        self.simulate = dict(simulate or {})
+        if "t_end" not in self.simulate:
+            raise ModelError("Study: simulate needs t_end [s], e.g. simulate=dict(t_end=1.0, dt_output=0.01).")
+        self.name = name or (getattr(system_or_builder, "topo", None) and system_or_builder.topo.name) or getattr(system_or_builder, "__name__", "study")
+
+    # -- definition ------------------------------------------------------------------------
+    def definition(self) -> dict:
+        """What makes two studies the same (compared on resume)."""
+        if self.is_builder:
+            target = {"builder": getattr(self.target, "__qualname__", repr(self.target)), "code": code_hash(self.target)}
+        else:
+            target = system_fingerprint(self.target)
+        d = {
+            "target": target,
+            "space": self.space.spec(),
+            "outputs": {k: code_hash(fn) for k, fn in self.outputs.items()},
+            "simulate": {k: (v if isinstance(v, (int, float, str, bool, type(None))) else repr(v)) for k, v in self.simulate.items()},
+        }
+        if self.apply is not None:
+            d["apply"] = code_hash(self.apply)
+        return d
+
+    def design(self, design="lhs", n: int | None = None, seed: int | None = 0) -> pd.DataFrame:
+        """The design's variants (parameters) with their ``key``, duplicates dropped."""
+        df = make_design(self.space, design, n, seed)
+        df.insert(0, "key", [variant_key(r) for r in df.to_dict("records")])
+        return df.drop_duplicates("key", ignore_index=True)
+
+    # -- running ---------------------------------------------------------------------------
+    def run(self, design="lhs", n: int | None = None, seed: int | None = 0, *, executor: str | None = None,
+            store=None, batch_size: int | None = None, workers: int | None = None, scheduler=None,
+            progress: bool | None = None, on_batch=None) -> pd.DataFrame:
+        """Run the design and return its rows (one per variant, in design order).
+
+        ``executor``: "vmap" (default for a System), "processes" (default for a builder) or
+        "dask" (``scheduler``: an address such as "tcp://host:8786" or a ``distributed.Client``;
+        default a LocalCluster of ``workers`` processes). ``store``: a folder; what it holds is
+        not run again, what finishes is written batch by batch. ``batch_size`` variants per
+        batch (default: on the CPU the pending ones split over the workers, at most 256).
+        ``on_batch(rows)`` is called after each batch is stored.
+        """
+        table = self.design(design, n, seed)
+        label = f"design={design if isinstance(design, str) else 'table'} n={n} seed={seed}"
+        return self.evaluate(table, executor=executor, store=store, batch_size=batch_size, workers=workers,
+                             scheduler=scheduler, progress=progress, on_batch=on_batch, label=label)
+
+    def evaluate(self, table: pd.DataFrame, *, executor=None, store=None, batch_size=None, workers=None,
+                 scheduler=None, progress=None, on_batch=None, label="table") -> pd.DataFrame:
+        """Evaluate the variants of ``table`` (columns: the space's parameters, optional ``key``)."""
+        if "key" not in table.columns:
+            table = table.copy()
+            table.insert(0, "key", [variant_key({k: r[k] for k in self.space.dims}) for r in table.to_dict("records")])
+        executor = executor or ("processes" if self.is_builder else "vmap")
+        if not isinstance(executor, str) or executor not in EXECUTORS:
+            raise ModelError(f"Study: unknown executor {executor!r}; valid: {list(EXECUTORS)}.")
+        st = Store(store).open(self.definition()) if store is not None else None
+        if st is not None:
+            st.add_plan(list(table["key"]), label)
+        done = st.read() if st is not None else pd.DataFrame()
+        done_keys = set(done["key"]) if len(done) else set()
+        todo = [(r["key"], {k: r[k] for k in self.space.dims}) for r in table.to_dict("records") if r["key"] not in done_keys]
+        new_rows = []
+        if todo:
+            new_rows = self._execute(todo, executor, st, batch_size, workers, scheduler, progress, on_batch)
+        allrows = pd.concat([done, pd.DataFrame(new_rows)], ignore_index=True) if len(done) else pd.DataFrame(new_rows)
+        allrows = allrows.drop_duplicates("key", keep="first").set_index("key")
+        out = allrows.loc[list(table["key"])].reset_index()
+        cols = ["key", *self.space.dims, *self.outputs, "status", "reason", "wall_s"]
+        return out[cols + [c for c in out.columns if c not in cols]]
+
+    def _execute(self, todo, executor, st, batch_size, workers, scheduler, progress, on_batch):
+        from ..analyses.sweep import default_batch_size, default_workers
+
+        if workers is None:
+            workers = default_workers() if executor == "vmap" else 2
+        if not isinstance(workers, int) or workers < 1:
+            raise ModelError(f"Study: workers must be a positive integer (got {workers!r}).")
+        bs = int(batch_size) if batch_size else default_batch_size(len(todo), workers)
+        batches = [todo[i : i + bs] for i in range(0, len(todo), bs)]
+        names = list(self.space.dims)
+        job = ex.Job(self.target, self.is_builder, names, self.outputs, self.simulate, self.apply)
+        client = owned = None
+        if executor == "vmap":
+            gen = ex.run_vmap(job, batches, workers=workers)
+        elif executor == "processes":
+            gen = ex.run_processes(job, batches, workers=workers)
+        else:
+            client, owned = ex.connect(scheduler, workers=workers)
+            gen = ex.run_dask(job, batches, client=client)
+        rows_all = []
+        bar = _progress(progress, len(todo), f"{self.name} [{executor}]")
+        try:
+            for rows in gen:
+                if st is not None:
+                    st.write(rows)
+                rows_all += rows
+                if bar is not None:
+                    bar.advance(len(rows), sum(r["status"] != "success" for r in rows))
+                if on_batch is not None:
+                    on_batch(rows)
+        finally:
+            if bar is not None:
+                bar.stop()
+            if owned and client is not None:
+                cluster = getattr(client, "cluster", None)
+                client.close()
+                if cluster is not None:
+                    cluster.close()
+        return rows_all
+
+    # -- analyses (optimize.py, sensitivity.py) ---------------------------------------------
+    def optimize(self, objective, constraints=None, n_trials: int = 50, **kw):
+        """Optimise with optuna through the same executors and store (:func:`proleg.study.optimize.optimize`)."""
+        from .optimize import optimize
+
+        return optimize(self, objective, constraints, n_trials, **kw)
+
+    def refine(self, start: dict, objective: str, **kw):
+        """Gradient-based local refinement from ``start`` (:func:`proleg.study.optimize.refine`)."""
+        from .optimize import refine
+
+        return refine(self, start, objective, **kw)
+
+    def local_sensitivity(self, at: dict | None = None, **kw) -> pd.DataFrame:
+        """d output / d parameter at ``at`` through the simulation (:func:`proleg.study.sensitivity.local_sensitivity`)."""
+        from .sensitivity import local_sensitivity
+
+        return local_sensitivity(self, at, **kw)
+
+    def sobol(self, n: int = 256, **kw) -> pd.DataFrame:
+        """Sobol' first-order and total indices from a Saltelli design (:func:`proleg.study.sensitivity.sobol`)."""
+        from .sensitivity import sobol
+
+        return sobol(self, n, **kw)
+
+    def __repr__(self):
+        return f"Study({self.name!r}: {list(self.space.dims)} -> {list(self.outputs)})"
+
+
+class _Bar:
+    """rich progress bar: variants done / total, failures, rate [variants/s] and ETA."""
+
+    def __init__(self, total, label):
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+        self.t0, self.done = time.perf_counter(), 0
+        self.p = Progress(TextColumn(f"[bold]{label}[/]"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[rate]}"),
+                          TextColumn("[red]{task.fields[failed]}[/]"), TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn())
+        self.task = self.p.add_task("study", total=total, rate="", failed="")
+        self.failed = 0
+        self.p.start()
+
+    def advance(self, n, failed):
+        self.done += n
+        self.failed += failed
+        rate = self.done / max(time.perf_counter() - self.t0, 1e-9)
+        self.p.update(self.task, advance=n, rate=f"{rate:.3g} variants/s", failed=f"{self.failed} failed" if self.failed else "")
+
+    def stop(self):
+        self.p.stop()
+
+
+def _progress(progress, total, label):
+    show = progress if progress is not None else sys.stderr.isatty()
+    return _Bar(total, label) if show else None
+
+
