@@ -105,7 +105,19 @@ class Coupler:
         return f"Coupler({self.name!r}, ratio={self.ratio:g})"
 
 
-class JointStop(AbstractForceElement):
+class _JointForce(AbstractForceElement):
+    """A force element on one joint's coordinate (markers I and J of the joint, set by the model)."""
+
+    def resolve(self, joint):
+        self.dof = _joint_dof(f"{type(self).__name__} '{self.name}'", joint, self.dof)
+        self.joint = joint
+        self.i, self.j = joint.marker_i, joint.marker_j
+
+    def markers(self):
+        return [m for m in (self.i, self.j) if m is not None]
+
+
+class JointStop(_JointForce):
     """A unilateral stop on a joint coordinate (Adams BISTOP as a force; e.g. a leg extension stop).
 
     With x the joint coordinate (I relative to J, [m] or [rad]) and the penetration beyond the
@@ -151,9 +163,7 @@ class JointStop(AbstractForceElement):
         self.i = self.j = None
 
     def resolve(self, joint):
-        self.dof = _joint_dof(f"JointStop '{self.name}'", joint, self.dof)
-        self.joint = joint
-        self.i, self.j = joint.marker_i, joint.marker_j
+        super().resolve(joint)
         x0 = joint_coordinate_at_pose(joint, self.dof)
         if not self.lower - 1e-12 <= x0 <= self.upper + 1e-12:
             raise ModelError(
@@ -161,11 +171,8 @@ class JointStop(AbstractForceElement):
                 "move the limits or the modelled pose."
             )
 
-    def markers(self):
-        return [m for m in (self.i, self.j) if m is not None]
 
-
-class JointFriction(AbstractForceElement):
+class JointFriction(_JointForce):
     """Coulomb (stiction) and viscous friction in a joint: τ = −τ_s tanh(θ̇/ω_s) − c θ̇ on I about z_J.
 
     The Coulomb part is smoothed over the slip rate ω_s (tanh), so the force is continuous and the
@@ -191,11 +198,3 @@ class JointFriction(AbstractForceElement):
         self.damping = finite_scalar(f"{who} damping", damping, nonnegative=True)
         self.slip_rate = finite_scalar(f"{who} slip_rate", slip_rate, positive=True)
         self.i = self.j = None
-
-    def resolve(self, joint):
-        self.dof = _joint_dof(f"JointFriction '{self.name}'", joint, self.dof)
-        self.joint = joint
-        self.i, self.j = joint.marker_i, joint.marker_j
-
-    def markers(self):
-        return [m for m in (self.i, self.j) if m is not None]
