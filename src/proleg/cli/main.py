@@ -18,6 +18,9 @@ SCENARIOS = {
     "hyq-drop": ("proleg.robots.hyq_tests", "run_drop", "HyQ leg drop test: rigid vs 4 vs 8 bushings, HTML report (main job)"),
     "hyq-static": ("proleg.robots.hyq_tests", "run_static", "HyQ leg static test, payload 0/3/7 kg"),
     "hyq-quasistatic": ("proleg.robots.hyq_tests", "run_quasistatic", "HyQ leg quasi-static cycles: force-stroke loops"),
+    "flegx-jump": ("proleg.robots.flegx_report", "run_jump", "FLEGX countermovement jump: rigid vs PRBM vs CB link (seed 002 Fig. 3)"),
+    "flegx-machinery": ("proleg.robots.flegx_report", "run_machinery", "FLEGX worm-gear jump with landing vs ideal gears (seed 002 Fig. 4)"),
+    "flegx-study": ("proleg.robots.flegx_report", "run_study", "FLEGX configurations 1-4 x link cases 1-6, Table I"),
 }
 
 

@@ -35,7 +35,8 @@ Jump metrics
   recovery of the modal body (σ_xx at the root surfaces). Rigid and PRBM: from the clamp's
   reaction, |N|/A + |M| / (W t²/6) (the beam formula for the same section).
 - ``tip_displacement`` [m]: max free-end displacement transverse to the strip relative to the
-  clamped end (CB: modal deformation of the tip node; PRBM: γ L sin Θ; rigid: 0).
+  clamped end (CB: modal deformation of the tip node; PRBM: γ L sin Θ; rigid: 0); the series
+  ``tip_displacement`` is signed along the strip's thickness axis u2 × y (u2 from knee to foot).
 - ``peak_hip_torque``/``peak_knee_torque`` [N m]: at the joint (wheel side) and, as
   ``*_worm``, at the worm (motor side) with :func:`worm_torques` for the model's ``gears``.
 """
@@ -279,7 +280,7 @@ def jump_metrics(res, model, law: MotionLaw) -> tuple[dict, dict]:
     elif info.link_model == "prbm":
         stress = stress_clamp
         Th = np.asarray(res.joint("link.pivot").angle)
-        tip = info.prbm.gamma * L * np.sin(Th)
+        tip = -info.prbm.gamma * L * np.sin(Th)  # along the strip's z (u2 × y), as the CB body's FE z
     else:
         stress = stress_clamp
         tip = np.zeros_like(t)
