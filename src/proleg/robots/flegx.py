@@ -58,7 +58,7 @@ from ..model.model import Model
 from ..units import deg
 from . import flegx_data as D
 
-__all__ = ["flegx", "FlegxInfo", "leg_geometry", "LINK_MODELS", "GEARS"]
+__all__ = ["flegx", "FlegxInfo", "leg_geometry", "add_link", "strip_reduced", "LINK_MODELS", "GEARS"]
 
 LINK_MODELS = ("rigid", "prbm", "cb")
 GEARS = ("ideal", "worm")
@@ -289,48 +289,9 @@ def flegx(
             model.add_joint(Spherical(f"tendon_{s}.knee", rod, flange, at=B))
 
     # -- the strip -------------------------------------------------------------------------------
-    Rs = _strip_frame(u2)
-    prbm, cb = None, {}
-    if link_model == "rigid":
-        link = model.add_part("link", m_strip, Rs @ np.diag(_box_inertia(m_strip, L, W, t)) @ Rs.T, C + 0.5 * L * u2)
-        model.add_joint(Fixed("link.clamp", link, flange, at=C))
-        tip_part = link
-    elif link_model == "prbm":
-        from ..flex.prbm import PRBMLink, dynamic_prbm
-
-        prbm = dynamic_prbm(L, W, t, base_mat, load=prbm_load, damping_ratio=prbm_damping)
-        if E_scale != 1.0:  # same γ, stiffness (and damping) scaled with E
-            prbm = PRBMLink.from_gamma(prbm.gamma, L, W, t, mat, prbm_damping)
-        parts = prbm.to_model(model, flange, C, _Y, u2, name="link")
-        tip_part = parts["tip"]
-    else:
-        from ..fem.beam import BeamModel, Section
-        from ..fem.craig_bampton import craig_bampton
-
-        beam = BeamModel.polyline([(0, 0, 0), (L, 0, 0)], int(cb_elements), Section.rectangle(W, t), mat)
-        root, tip = beam.node_at((0, 0, 0)), beam.node_at((L, 0, 0))
-        B = np.concatenate([beam.node_dofs([root]), beam.node_dofs([tip])])
-        rb = craig_bampton(beam.K, beam.M, B, int(cb_modes), node_coordinates=beam.node_coordinates,
-                           node_dofs=beam.node_dof_table)
-        n1 = beam.node_at((L / cb_elements, 0, 0))
-        le, c, Em = L / cb_elements, 0.5 * t, mat.E
-
-        def root_stress(u):
-            """σ at (x = 0, z = ±t/2) of the root element: Hermite curvature + axial bar strain."""
-            w0, t0 = u[beam.dof(root, "uz")], -u[beam.dof(root, "ry")]
-            w1, t1 = u[beam.dof(n1, "uz")], -u[beam.dof(n1, "ry")]
-            kappa = 6 * (w1 - w0) / le**2 - (4 * t0 + 2 * t1) / le
-            eps = (u[beam.dof(n1, "ux")] - u[beam.dof(root, "ux")]) / le
-            out = np.zeros((2, 3, 3))
-            out[0, 0, 0] = Em * (eps - c * kappa)
-            out[1, 0, 0] = Em * (eps + c * kappa)
-            return out
-
-        link = model.add_flexible_body("link", rb, frame_node=root, position=C, orientation=Rs,
-                                       damping_ratio=cb_damping, stress=([(0, 0, c), (0, 0, -c)], root_stress))
-        model.add_joint(Fixed("link.clamp", link, flange, at=C))
-        cb = dict(beam=beam, reduced=rb, root=root, tip=tip, body=link)
-        tip_part = link
+    link = add_link(model, flange, C, u2, link_model, (L, W, t), mat, base_material=base_mat, cb_elements=cb_elements,
+                    cb_modes=cb_modes, cb_damping=cb_damping, prbm_load=prbm_load, prbm_damping=prbm_damping)
+    tip_part, prbm, cb = link["tip_part"], link["prbm"], link["cb"]
 
     Rfoot = np.column_stack([np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, -1.0]), _Y])  # cylinder axis z along +y
     if link_model == "cb":
@@ -362,3 +323,68 @@ def flegx(
         stand=(th1, th2), hip_height=float(z_hip), masses=masses, total_mass=total,
         knee_drive=up["knee_drive"], prbm=prbm, cb=cb, EI=EI, parameters=params)
     return model
+
+
+def add_link(model, parent, at, direction, link_model, geometry, mat, *, base_material=None, cb_elements=10, cb_modes=3,
+             cb_damping=0.015, prbm_load=D.PRBM_CALIBRATION_LOAD, prbm_damping=D.PRBM_DAMPING_RATIO, name="link"):
+    """Clamp the strip (L, W, t) [m] of material ``mat`` to ``parent`` at ``at``, pointing along
+    ``direction`` (in the x-z plane; width along +y), as ``link_model`` (module docstring).
+
+    ``base_material`` is the material the PRBM is calibrated with (Eq. 8 with the elastica of
+    that E); when ``mat`` differs (``E_scale``) the PRBM keeps γ and scales K_t, C_t with E.
+    Returns dict(tip_part, prbm, cb) with ``cb`` = dict(beam, reduced, root, tip, body).
+    """
+    L, W, t = geometry
+    u2 = np.asarray(direction, float)
+    Rs = _strip_frame(u2)
+    prbm, cb = None, {}
+    base_material = base_material or mat
+    if link_model == "rigid":
+        m_strip = mat.rho * L * W * t
+        link = model.add_part(name, m_strip, Rs @ np.diag(_box_inertia(m_strip, L, W, t)) @ Rs.T, at + 0.5 * L * u2)
+        model.add_joint(Fixed(f"{name}.clamp", link, parent, at=at))
+        tip_part = link
+    elif link_model == "prbm":
+        from ..flex.prbm import PRBMLink, dynamic_prbm
+
+        prbm = dynamic_prbm(L, W, t, base_material, load=prbm_load, damping_ratio=prbm_damping)
+        if mat.E != base_material.E:  # same γ, stiffness (and damping) scaled with E
+            prbm = PRBMLink.from_gamma(prbm.gamma, L, W, t, mat, prbm_damping)
+        parts = prbm.to_model(model, parent, at, _Y, u2, name=name)
+        tip_part = parts["tip"]
+    else:
+        rb, beam, root, tip = strip_reduced(L, W, t, mat, cb_elements, cb_modes)
+        n1 = beam.node_at((L / cb_elements, 0, 0))
+        le, c, Em = L / cb_elements, 0.5 * t, mat.E
+
+        def root_stress(u):
+            """σ at (x = 0, z = ±t/2) of the root element: Hermite curvature + axial bar strain."""
+            w0, t0 = u[beam.dof(root, "uz")], -u[beam.dof(root, "ry")]
+            w1, t1 = u[beam.dof(n1, "uz")], -u[beam.dof(n1, "ry")]
+            kappa = 6 * (w1 - w0) / le**2 - (4 * t0 + 2 * t1) / le
+            eps = (u[beam.dof(n1, "ux")] - u[beam.dof(root, "ux")]) / le
+            out = np.zeros((2, 3, 3))
+            out[0, 0, 0] = Em * (eps - c * kappa)
+            out[1, 0, 0] = Em * (eps + c * kappa)
+            return out
+
+        link = model.add_flexible_body(name, rb, frame_node=root, position=at, orientation=Rs,
+                                       damping_ratio=cb_damping, stress=([(0, 0, c), (0, 0, -c)], root_stress))
+        model.add_joint(Fixed(f"{name}.clamp", link, parent, at=at))
+        cb = dict(beam=beam, reduced=rb, root=root, tip=tip, body=link)
+        tip_part = link
+    return dict(tip_part=tip_part, prbm=prbm, cb=cb)
+
+
+def strip_reduced(L, W, t, mat, n_elements=10, n_modes=3):
+    """Craig-Bampton reduction of the strip as Euler-Bernoulli beams along FE x (thickness along
+    FE z): interface nodes root (x = 0) and tip (x = L), ``n_modes`` fixed-interface modes.
+    Returns (ReducedBody, BeamModel, root node, tip node)."""
+    from ..fem.beam import BeamModel, Section
+    from ..fem.craig_bampton import craig_bampton
+
+    beam = BeamModel.polyline([(0, 0, 0), (L, 0, 0)], int(n_elements), Section.rectangle(W, t), mat)
+    root, tip = beam.node_at((0, 0, 0)), beam.node_at((L, 0, 0))
+    B = np.concatenate([beam.node_dofs([root]), beam.node_dofs([tip])])
+    rb = craig_bampton(beam.K, beam.M, B, int(n_modes), node_coordinates=beam.node_coordinates, node_dofs=beam.node_dof_table)
+    return rb, beam, root, tip
