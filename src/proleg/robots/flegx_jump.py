@@ -23,8 +23,10 @@ function of time" on the hip and knee.
 
 Jump metrics
 ------------
-- ``take_off_time`` [s]: first output time after the push starts with zero foot normal force;
-  ``landing_time``: the next time it is positive again.
+- ``take_off_time`` [s] and ``landing_time``: start and end (first and last-plus-one output
+  with zero foot normal force) of the **longest** flight after the push starts: a brief
+  touch-and-go of the still-extending leg before the main flight, and the hops after the
+  landing (the strip springs back), are not the jump. ``flights`` counts all airborne phases.
 - ``jump_height`` [m]: the paper's "jumping height" is taken as the **guide's rise** from
   take-off to the apex of the flight (the hip's ballistic rise, ≈ v²/2g with v the take-off
   velocity; the usual jump height of jumping biomechanics). ``foot_clearance`` is the highest
@@ -303,21 +305,26 @@ def jump_metrics(res, model, law: MotionLaw) -> tuple[dict, dict]:
     hip_w = worm_torques(hip_tau, w_up, info.gears)
     knee_w = worm_torques(knee_wheel_tau, w_knee_wheel, info.gears)
 
-    # take-off and landing
+    # take-off and landing: the longest flight after the push starts (a touch-and-go of the still
+    # extending leg, or the hops after landing, are shorter)
     i0 = int(np.searchsorted(t, law.push_start))
-    off = np.flatnonzero(N[i0:] <= 0.0)
+    air = np.r_[False, N[i0:] <= 0.0, False]
+    edges = np.flatnonzero(np.diff(air.astype(int)))
+    starts, ends = edges[0::2], edges[1::2]  # flight k: samples i0 + starts[k] ... i0 + ends[k] - 1
     m = dict(total_mass=info.total_mass)
-    if off.size:
-        i_to = i0 + int(off[0])
-        on = np.flatnonzero(N[i_to:] > 0.0)
-        i_ld = i_to + int(on[0]) if on.size else len(t) - 1
+    if starts.size:
+        k = int(np.argmax(ends - starts))
+        i_to = i0 + int(starts[k])
+        landed = i0 + int(ends[k]) < len(t)
+        i_ld = min(i0 + int(ends[k]), len(t) - 1)
         flight = slice(i_to, i_ld + 1)
-        m.update(take_off_time=float(t[i_to]), landing_time=float(t[i_ld]) if on.size else math.nan,
+        m.update(take_off_time=float(t[i_to]), landing_time=float(t[i_ld]) if landed else math.nan,
                  jump_height=float(np.max(gz[flight]) - gz[i_to]), foot_clearance=float(np.max(foot_z[flight])),
-                 take_off_velocity=float(gvz[i_to]), max_stress_takeoff=float(np.max(stress[: i_to + 1])))
+                 take_off_velocity=float(gvz[i_to]), max_stress_takeoff=float(np.max(stress[: i_to + 1])),
+                 flights=int(starts.size))
     else:
         m.update(take_off_time=math.nan, landing_time=math.nan, jump_height=0.0, foot_clearance=0.0,
-                 take_off_velocity=math.nan, max_stress_takeoff=float(np.max(stress)))
+                 take_off_velocity=math.nan, max_stress_takeoff=float(np.max(stress)), flights=0)
     m.update(
         max_stress=float(np.max(stress)), max_stress_clamp_reaction=float(np.max(stress_clamp)),
         tip_displacement=float(np.max(np.abs(tip))),
