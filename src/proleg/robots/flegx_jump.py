@@ -24,7 +24,8 @@ function of time" on the hip and knee.
 Jump metrics
 ------------
 - ``take_off_time`` [s] and ``landing_time``: start and end (first and last-plus-one output
-  with zero foot normal force) of the **longest** flight after the push starts: a brief
+  with zero foot normal force) of the flight that contains the guide's highest point after
+  the push starts (none: the leg did not jump, ``jump_height`` = 0): a brief
   touch-and-go of the still-extending leg before the main flight, and the hops after the
   landing (the strip springs back), are not the jump. ``flights`` counts all airborne phases.
 - ``jump_height`` [m]: the paper's "jumping height" is taken as the **guide's rise** from
@@ -305,15 +306,17 @@ def jump_metrics(res, model, law: MotionLaw) -> tuple[dict, dict]:
     hip_w = worm_torques(hip_tau, w_up, info.gears)
     knee_w = worm_torques(knee_wheel_tau, w_knee_wheel, info.gears)
 
-    # take-off and landing: the longest flight after the push starts (a touch-and-go of the still
-    # extending leg, or the hops after landing, are shorter)
+    # take-off and landing: the flight that contains the guide's apex after the push starts (a
+    # touch-and-go of the still-extending leg, or the hops after landing, are not the jump)
     i0 = int(np.searchsorted(t, law.push_start))
     air = np.r_[False, N[i0:] <= 0.0, False]
     edges = np.flatnonzero(np.diff(air.astype(int)))
     starts, ends = edges[0::2], edges[1::2]  # flight k: samples i0 + starts[k] ... i0 + ends[k] - 1
     m = dict(total_mass=info.total_mass)
-    if starts.size:
-        k = int(np.argmax(ends - starts))
+    k_apex = int(np.argmax(gz[i0:]))
+    hit = np.flatnonzero((starts <= k_apex) & (k_apex < ends))
+    if hit.size:
+        k = int(hit[0])
         i_to = i0 + int(starts[k])
         landed = i0 + int(ends[k]) < len(t)
         i_ld = min(i0 + int(ends[k]), len(t) - 1)
