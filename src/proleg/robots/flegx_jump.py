@@ -12,8 +12,8 @@ with t_s = ``t_settle`` (standing still on the ground first), t_p = t_s + T_squa
 t_r = t_p + T_push + ``retract_delay``. Defaults: stand (−30°, 60°), squat (−50°, 100°),
 extend (−20°, 40°), land = stand; T_squat = 0.8 s (seed 002: "squats down in few seconds";
 shortened to keep runs short, the squat is quasi-static either way), T_push = 0.30 s. With the
-No. 4 leg and the 250×70×3 CB link this gives a ≈ 90 mm jump, ≈ 430 MPa at take-off and
-≈ 515 MPa at landing, ≈ 35 mm tip displacement (the paper: 104 mm / 531 MPa, Table I; 447 MPa
+No. 4 leg and the 250×70×3 CB link this gives a 91 mm jump, 432 MPa at take-off and
+506 MPa at landing, 35 mm tip displacement (PRBM link: 103 mm; the rigid link does not take off) (the paper: 104 mm / 531 MPa, Table I; 447 MPa
 and 32 mm for its 50 mm machinery jump, Fig. 4). The push is close to the leg's bounce
 period on the strip (≈ 0.2-0.3 s), so the flexible link stores and returns energy: shorter
 pushes jump much higher on the flexible link than on the rigid one.
