@@ -20,6 +20,9 @@ SCENARIOS = {
     "hyq-quasistatic": ("proleg.robots.hyq_tests", "run_quasistatic", "HyQ leg quasi-static cycles: force-stroke loops"),
     "scout2-bound": ("proleg.robots.scout2_report", "run_bound", "Scout II bounding: Model I vs Model II, low speed, gait metrics, HTML report"),
     "hyq-bushing-study": ("proleg.robots.hyq_study", "run_bushing_study", "HyQ 8-bushing drop vs pin stiffness 1e6-1e10 N/m: proleg.study store + HTML report"),
+    "flegx-jump": ("proleg.robots.flegx_report", "run_jump", "FLEGX countermovement jump: rigid vs PRBM vs CB link (seed 002 Fig. 3)"),
+    "flegx-machinery": ("proleg.robots.flegx_report", "run_machinery", "FLEGX worm-gear jump with landing vs ideal gears (seed 002 Fig. 4)"),
+    "flegx-study": ("proleg.robots.flegx_report", "run_study", "FLEGX configurations 1-4 x link cases 1-6, Table I"),
 }
 
 

@@ -5,8 +5,12 @@
 
 - :func:`scout2`, :func:`scout2_bound`: the Scout II bounding quadruped (seed 003), Model I and
   Model II, its bounding runs and gait metrics; scenario ``proleg run scout2-bound``.
+- :func:`flegx`: the FLEGX flexible jumping leg (seed 002), rigid / PRBM / Craig-Bampton
+  lower leg; :func:`flegx_jump` its countermovement jump with metrics.
 """
 
 from .hyq_leg import hyq_leg as hyq_leg
+from .flegx import flegx as flegx
+from .flegx_jump import flegx_jump as flegx_jump
 from .scout2 import scout2 as scout2
 from .scout2_bound import scout2_bound as scout2_bound
