@@ -102,7 +102,8 @@ def _axis(axis_point, axis):
 def torque_load(model, predicate, torque: float, axis_point=(0.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0)) -> np.ndarray:
     """Load vector [N] of a torque ``torque`` [N m] about an axis, spread over boundary facets.
 
-    The traction on the facets whose midpoints satisfy ``predicate(x, y, z)`` is tangential,
+    The traction on the facets whose midpoints satisfy ``predicate(x, y, z)`` (or the facet
+    indices ``predicate``) is tangential,
     t = tau0 (a x r) with r the position relative to the axis (the Saint-Venant shear flow of a
     circular section, tau proportional to the distance from the axis), and tau0 chosen so that
     the resultant moment about the axis is exactly ``torque`` on the discrete surface (the
@@ -112,7 +113,10 @@ def torque_load(model, predicate, torque: float, axis_point=(0.0, 0.0, 0.0), axi
     from skfem import FacetBasis, LinearForm, asm
 
     c, a = _axis(axis_point, axis)
-    facets = model.mesh.facets_satisfying(lambda x: predicate(x[0], x[1], x[2]), boundaries_only=True)
+    if callable(predicate):
+        facets = model.mesh.facets_satisfying(lambda x: predicate(x[0], x[1], x[2]), boundaries_only=True)
+    else:  # facet indices
+        facets = np.asarray(predicate, dtype=np.int64)
     if facets.size == 0:
         raise ModelError("torque_load: no boundary facet satisfies the predicate; check the face coordinates [m].")
     fb = FacetBasis(model.mesh, model.basis.elem, facets=facets, intorder=2 * model.order + 1)
