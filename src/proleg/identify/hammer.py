@@ -147,7 +147,7 @@ def _fit_group(f, H, f0, z0):
     return np.exp(sol.x[0::2]) / (2 * np.pi), np.exp(sol.x[1::2]), A
 
 
-def modal(time, force, accelerations, *, n_modes: int | None = None, f_range=None, prominence: float = 0.2,
+def modal(time, force, accelerations, *, n_modes: int | None = None, f_range=None, prominence: float = 0.5,
           group_ratio: float = 0.15, band: float = 0.2, hit_threshold: float = 0.1,
           f_guess=None, source: str = "arrays") -> ModalIdentification:
     """Natural frequencies [Hz], damping ratios and mode shapes from hammer-test records.
@@ -172,10 +172,10 @@ def modal(time, force, accelerations, *, n_modes: int | None = None, f_range=Non
     sel = (freq >= lo) & (freq <= hi)
     f, Hs = freq[sel], H[sel]
     # mode indicator sum_j |H_j|^2 / max |H_j|^2 in log scale, detrended by its running median over
-    # +-10 % in frequency (removes the noise floor's slope); a peak must rise 1/prominence above it
+    # +-25 % in frequency (removes the noise floor's slope); a peak must rise 1/prominence above it
     ind = np.log(np.sum(np.abs(Hs) ** 2 / np.max(np.abs(Hs) ** 2, axis=0), axis=1))
     lf = np.log(f)
-    trend = np.array([np.median(ind[np.abs(lf - x) < 0.1]) for x in lf])
+    trend = np.array([np.median(ind[np.abs(lf - x) < 0.25]) for x in lf])
     lg = ind - trend
     if f_guess is not None:  # pre-test analysis: the highest indicator within +-band of each guess
         pk, maxima = [], find_peaks(lg)[0]
@@ -244,7 +244,7 @@ def comparison_table(f_num, shapes_num, f_exp, shapes_exp) -> tuple[pd.DataFrame
 
 def synthetic_hammer_test(frequencies, damping, shapes_out, shape_in, *, fs: float = 1024.0, block: float = 16.0,
                           n_hits: int = 5, pulse: float = 0.002, peak_force: float = 200.0,
-                          noise_force: float = 0.001, noise_acc: float = 0.001, seed: int = 0):
+                          noise_force: float = 1e-4, noise_acc: float = 1e-4, seed: int = 0):
     """Hammer-test records from a modal model (mass-normalised modes).
 
     Parameters
