@@ -5,3 +5,6 @@
 """
 
 from .hyq_leg import hyq_leg as hyq_leg
+from .sensor_fe import mesh_convergence as torque_sensor_convergence
+from .sensor_fe import torque_sensor_analysis as torque_sensor_analysis
+from .torso import torso_modal as torso_modal
