@@ -71,3 +71,24 @@ def test_torso_modes_follow_table2_pattern():
     assert f[first_mount] < f[first_frame]
     with pytest.raises(ModelError, match="tube_wall"):
         torso_modal(tube_wall=0.03)
+
+
+def test_cli_identify_modal(tmp_path):
+    import pandas as pd
+    from typer.testing import CliRunner
+
+    from proleg.cli.main import app
+
+    t, F, A = synthetic_hammer_test([30.0, 120.0], [0.02, 0.01], np.array([[1.0, 0.5], [0.4, -1.0]]), [1.0, 0.7])
+    pd.DataFrame({"time": t, "force": F}).to_csv(tmp_path / "force.csv", index=False)
+    pd.DataFrame({"time": t, "a0": A[:, 0], "a1": A[:, 1]}).to_csv(tmp_path / "accel.csv", index=False)
+    pd.DataFrame({"time": t[:-2], "a0": A[:-2, 0]}).to_csv(tmp_path / "short.csv", index=False)
+    run = CliRunner().invoke(app, ["identify", "modal", str(tmp_path / "force.csv"), str(tmp_path / "accel.csv"), "--json",
+                                      "--f-min", "10"])
+    assert run.exit_code == 0, run.output
+    import json
+
+    out = json.loads(run.output)
+    assert out["frequencies_hz"] == pytest.approx([30.0, 120.0], rel=0.01)
+    bad = CliRunner().invoke(app, ["identify", "modal", str(tmp_path / "force.csv"), str(tmp_path / "short.csv")])
+    assert bad.exit_code == 2 and "short.csv" in bad.output and "'time'" in bad.output

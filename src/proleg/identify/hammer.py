@@ -169,6 +169,7 @@ def modal(time, force, accelerations, *, n_modes: int | None = None, f_range=Non
     from scipy.signal import find_peaks
 
     lo, hi = f_range if f_range is not None else (max(freq[1], 0.5), 0.8 * freq[-1])
+    lo, hi = max(lo, freq[1]), min(hi, 0.8 * freq[-1])
     sel = (freq >= lo) & (freq <= hi)
     f, Hs = freq[sel], H[sel]
     # mode indicator sum_j |H_j|^2 / max |H_j|^2 in log scale, detrended by its running median over
