@@ -18,6 +18,8 @@ SCENARIOS = {
     "hyq-drop": ("proleg.robots.hyq_tests", "run_drop", "HyQ leg drop test: rigid vs 4 vs 8 bushings, HTML report (main job)"),
     "hyq-static": ("proleg.robots.hyq_tests", "run_static", "HyQ leg static test, payload 0/3/7 kg"),
     "hyq-quasistatic": ("proleg.robots.hyq_tests", "run_quasistatic", "HyQ leg quasi-static cycles: force-stroke loops"),
+    "torso-modal": ("proleg.robots.torso_report", "run_torso_modal", "HyQ torso FE modes vs a synthetic hammer test (seed 001 Table 2)"),
+    "torque-sensor-study": ("proleg.robots.sensor_study", "run_torque_sensor_study", "HyQ torque sensor: four FE concepts + optuna optimisation"),
 }
 
 
