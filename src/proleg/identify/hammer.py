@@ -229,14 +229,15 @@ def mac(a, b) -> np.ndarray:
     return num / np.outer(np.sum(np.abs(a) ** 2, 0), np.sum(np.abs(b) ** 2, 0))
 
 
-def comparison_table(f_num, shapes_num, f_exp, shapes_exp) -> tuple[pd.DataFrame, np.ndarray]:
-    """Pair each experimental mode with the numerical mode of highest MAC (ties to the nearest
-    frequency) and print in the layout of seed 001 Table 2: numerical [Hz], experimental [Hz],
+def comparison_table(f_num, shapes_num, f_exp, shapes_exp, max_ratio: float = 1.3) -> tuple[pd.DataFrame, np.ndarray]:
+    """Pair each experimental mode with the numerical mode of highest MAC among those within a
+    frequency ratio ``max_ratio`` (ties to the nearest frequency) and print in the layout of seed 001 Table 2: numerical [Hz], experimental [Hz],
     difference [%] = |num - exp| / exp, plus the MAC. Returns (table, MAC matrix num x exp)."""
     M = mac(shapes_num, shapes_exp)
     rows = []
     for j, fe in enumerate(f_exp):
-        score = M[:, j] - 1e-3 * np.abs(np.log(np.asarray(f_num) / fe))
+        lr = np.abs(np.log(np.asarray(f_num) / fe))  # candidates within a frequency ratio of max_ratio
+        score = np.where(lr <= np.log(max_ratio), M[:, j], -1.0) - 1e-3 * lr
         i = int(np.argmax(score))
         rows.append({"numerical [Hz]": f_num[i], "experimental [Hz]": fe,
                      "difference [%]": 100 * abs(f_num[i] - fe) / fe, "MAC": M[i, j], "FE mode": i + 1})
