@@ -70,3 +70,16 @@ def test_bad_geometry_names_the_parameter(concept, dims, match):
 def test_zero_torque_is_refused():
     with pytest.raises(ModelError, match="torque"):
         torque_sensor_analysis("final", torque=0.0)
+
+
+@pytest.mark.slow
+def test_optimisation_is_resumable(tmp_path):
+    """Two calls on one SQLite storage: the second continues the first's study (each trial an FE solve)."""
+    from proleg.robots.sensor_study import optimize_sensor
+
+    url = f"sqlite:///{tmp_path / 'opt.db'}"
+    study, _ = optimize_sensor(url, n_trials=1, search_mesh=0.006)
+    assert len(study.trials) == 1
+    study, hist = optimize_sensor(url, n_trials=1, search_mesh=0.006)
+    assert len(study.trials) == 2 and len(hist) == 2
+    assert study.trials[0].user_attrs["gauge_strain"] > 0
