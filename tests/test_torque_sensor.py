@@ -58,8 +58,8 @@ def test_tension_links_equilibrium_and_bidirectionality():
     ("spokes", dict(r_hub=0.031), "r_ring"),  # hub beyond the ring: self-intersection
     ("final", dict(neck_width=0.008), "neck_width"),  # neck wider than the link
     ("final", dict(r_link=0.016), "r_link"),  # link outside the hub
-    ("tension_links", dict(link_width=0.002), "link_width"),  # wall thinner than the mesh
-    ("hollow", dict(wall=0.001), "wall"),
+    ("tension_links", dict(link_width=0.0015), "link_width"),  # wall thinner than half the mesh
+    ("hollow", dict(wall=0.0015), "wall"),
     ("spokes", dict(r_out=0.05), "r_out"),  # outside the envelope
 ])
 def test_bad_geometry_names_the_parameter(concept, dims, match):

@@ -99,9 +99,10 @@ def _positive(dims, names):
 
 
 def _wall(dims, name, value, h):
-    if value < h:
-        raise ModelError(f"torque sensor {name}: the wall is {value * 1e3:.3g} mm, thinner than the mesh size "
-                         f"{h * 1e3:.3g} mm; increase {name} or pass a smaller mesh_size.")
+    """A wall needs one quadratic element across: value >= mesh_size / 2 (gauge regions are meshed at h/2)."""
+    if value < 0.5 * h:
+        raise ModelError(f"torque sensor {name}: the wall is {value * 1e3:.3g} mm, thinner than half the mesh size "
+                         f"({h * 5e2:.3g} mm); increase {name} or pass a smaller mesh_size.")
 
 
 def sensor_design(concept: str, mesh_size: float | None = None, **dimensions) -> SensorDesign:
@@ -259,8 +260,7 @@ def _links(d, h, final):
     if rl + w / 2 >= d["r_hub"] - 1e-4:
         raise ModelError(f"torque sensor r_link = {rl * 1e3:.4g} mm: the link (width {w * 1e3:.3g} mm) must start "
                          f"inside the hub (r_link + link_width/2 < r_hub = {d['r_hub'] * 1e3:.4g} mm); reduce r_link.")
-    if rl - w / 2 <= d["r_bore"]:
-        raise ModelError(f"torque sensor r_link = {rl * 1e3:.4g} mm: the link cuts into the bore; increase r_link.")
+    x0 = math.sqrt(max(0.0, (0.5 * (d["r_bore"] + d["r_hub"])) ** 2 - (rl - w / 2) ** 2))  # link root in the hub
     x_hub = math.sqrt(d["r_hub"] ** 2 - rl**2)
     x_ring = math.sqrt(d["r_ring"] ** 2 - (rl + w / 2) ** 2)
     free = x_ring - x_hub
@@ -289,7 +289,7 @@ def _links(d, h, final):
         cuts = []
         for k in range(n):
             a = 2 * math.pi * k / n
-            s = occ.addRectangle(0, rl - w / 2, 0, xe, w)
+            s = occ.addRectangle(x0, rl - w / 2, 0, xe - x0, w)
             occ.rotate([(2, s)], 0, 0, 0, 0, 0, 1, a)
             parts.append((2, s))
             if final:
