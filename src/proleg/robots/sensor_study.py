@@ -119,7 +119,10 @@ def _gauge_figure(results):
     fig, ax = plt.subplots(figsize=(7, 3.2))
     names = list(results)
     for k, (case, dr) in enumerate([("A", "CCW"), ("A", "CW"), ("B", "CCW"), ("B", "CW")]):
-        vals = [results[n].gauges.query("case == @case and direction == @dr").strain.abs().max() * 100 for n in names]
+        vals = []
+        for n in names:
+            g = results[n].gauges
+            vals.append(g.strain[(g.case == case) & (g.direction == dr)].abs().max() * 100)
         ax.bar(np.arange(len(names)) + 0.2 * k - 0.3, vals, 0.2, label=f"case {case}, {dr}")
     ax.axhline(0.06, color="k", ls="--", lw=0.8)
     ax.text(len(names) - 0.5, 0.062, "0.06 % limit", ha="right", fontsize=8)
