@@ -299,3 +299,56 @@ def fit_cmd(
 
     Console().print(res.table().to_string(index=False))
     Console().print(f"rms residual {res.rms:.4g} (weighted), {res.iterations} evaluations: {res.message}")
+
+
+@identify_app.command("modal")
+@_data_errors
+def modal_cmd(
+    force_file: Annotated[Path, typer.Argument(help="CSV/Parquet with the time and hammer-force columns.")],
+    accel_file: Annotated[Path, typer.Argument(help="CSV/Parquet with the time and one column per accelerometer.")],
+    time_col: Annotated[str, typer.Option("--time", help="Time column [s] in both files.")] = "time",
+    force_col: Annotated[str | None, typer.Option("--force", help="Force column [N] (default: the first non-time column).")] = None,
+    n_modes: Annotated[int | None, typer.Option("--n-modes", help="Keep the n most prominent peaks.")] = None,
+    f_min: Annotated[float | None, typer.Option("--f-min", help="Lowest frequency searched [Hz].")] = None,
+    f_max: Annotated[float | None, typer.Option("--f-max", help="Highest frequency searched [Hz].")] = None,
+    json_out: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
+):
+    """Experimental modal analysis of an impact-hammer test: H1 FRFs averaged over the hits,
+    natural frequencies, damping ratios (least-squares fit) and mode shapes (one value per channel)."""
+    import numpy as np
+
+    from proleg.identify.data import check_signal, read_table
+    from proleg.identify.hammer import modal
+
+    fdf, adf = read_table(force_file), read_table(accel_file)
+    for path, df in ((force_file, fdf), (accel_file, adf)):
+        if time_col not in df.columns:
+            raise DataError(f"{path}: no column '{time_col}' (columns: {list(df.columns)}); pass --time NAME.")
+    fcols = [c for c in fdf.columns if c != time_col]
+    force_col = force_col or (fcols[0] if fcols else None)
+    if force_col not in fdf.columns:
+        raise DataError(f"{force_file}: no force column '{force_col}' (columns: {list(fdf.columns)}); pass --force NAME.")
+    acols = [c for c in adf.columns if c != time_col]
+    if not acols:
+        raise DataError(f"{accel_file}: no accelerometer column besides '{time_col}'.")
+    t = check_signal(fdf[time_col], source=str(force_file), column=time_col)
+    ta = check_signal(adf[time_col], source=str(accel_file), column=time_col)
+    if ta.size != t.size:
+        raise DataError(f"{accel_file}: column '{time_col}' has {ta.size} rows but {force_file} has {t.size}; "
+                        "the force and acceleration records must have the same length.")
+    if not np.allclose(ta, t, rtol=0, atol=1e-9 * max(1.0, abs(t).max())):
+        raise DataError(f"{accel_file}: column '{time_col}' differs from {force_file}'s; record both on one clock.")
+    F = check_signal(fdf[force_col], source=str(force_file), column=force_col)
+    A = np.column_stack([check_signal(adf[c], source=str(accel_file), column=c) for c in acols])
+    f_range = None if f_min is None and f_max is None else (f_min or 0.5, f_max or 1e9)
+    res = modal(t, F, A, n_modes=n_modes, f_range=f_range, source=f"{force_file} / {accel_file}")
+    if json_out:
+        _json_out({"frequencies_hz": res.frequencies.tolist(), "damping": res.damping.tolist(),
+                   "shapes": {c: res.shapes[i].tolist() for i, c in enumerate(acols)}, "averages": res.n_averages})
+        return
+    t_ = Table(title=f"modal identification ({res.n_averages} hits averaged, H1)")
+    for col in ["mode", "f [Hz]", "zeta [%]"] + acols:
+        t_.add_column(col)
+    for k in range(res.frequencies.size):
+        t_.add_row(str(k + 1), _g(res.frequencies[k]), _g(100 * res.damping[k]), *[_g(v) for v in res.shapes[:, k]])
+    Console().print(t_)

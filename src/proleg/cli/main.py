@@ -23,6 +23,8 @@ SCENARIOS = {
     "flegx-jump": ("proleg.robots.flegx_report", "run_jump", "FLEGX countermovement jump: rigid vs PRBM vs CB link (seed 002 Fig. 3)"),
     "flegx-machinery": ("proleg.robots.flegx_report", "run_machinery", "FLEGX worm-gear jump with landing vs ideal gears (seed 002 Fig. 4)"),
     "flegx-study": ("proleg.robots.flegx_report", "run_study", "FLEGX configurations 1-4 x link cases 1-6, Table I"),
+    "torso-modal": ("proleg.robots.torso_report", "run_torso_modal", "HyQ torso FE modes vs a synthetic hammer test (seed 001 Table 2)"),
+    "torque-sensor-study": ("proleg.robots.sensor_study", "run_torque_sensor_study", "HyQ torque sensor: four FE concepts + optuna optimisation"),
 }
 
 

@@ -20,3 +20,8 @@ from .materials import material_names as material_names
 from .solid import SolidModel as SolidModel
 from .solid import StressResult as StressResult
 from .solid import mesh_box as mesh_box
+from .lumped import LumpedModel as LumpedModel
+from .mesh import axial_rotation as axial_rotation
+from .mesh import mesh_occ as mesh_occ
+from .mesh import rotation_field as rotation_field
+from .mesh import torque_load as torque_load

@@ -33,3 +33,8 @@ from .fit import FitResult as FitResult
 from .fit import fit as fit
 from .fit import plot_fit as plot_fit
 from .fit import signal as signal
+from .hammer import ModalIdentification as ModalIdentification
+from .hammer import comparison_table as modal_comparison_table
+from .hammer import mac as mac
+from .hammer import modal as modal
+from .hammer import synthetic_hammer_test as synthetic_hammer_test

@@ -14,3 +14,6 @@ from .flegx import flegx as flegx
 from .flegx_jump import flegx_jump as flegx_jump
 from .scout2 import scout2 as scout2
 from .scout2_bound import scout2_bound as scout2_bound
+from .sensor_fe import mesh_convergence as torque_sensor_convergence
+from .sensor_fe import torque_sensor_analysis as torque_sensor_analysis
+from .torso import torso_modal as torso_modal

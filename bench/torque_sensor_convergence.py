@@ -1,0 +1,26 @@
+"""Mesh convergence of the torque-sensor FE metrics (issue 17): gauge strain, max von Mises,
+stiffness and calibration of one concept on a sequence of meshes, relative to the finest.
+
+    PYTHONPATH=src python bench/torque_sensor_convergence.py [--concept final] [--sizes 6,5,4,3,2]
+
+Writes bench/results/torque_sensor_convergence_<concept>.csv and prints the table.
+"""
+
+import argparse
+import time
+from pathlib import Path
+
+from proleg.robots.sensor_fe import mesh_convergence
+
+if __name__ == "__main__":
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--concept", default="final")
+    ap.add_argument("--sizes", default="6,5,4,3", help="element sizes [mm], coarse to fine")
+    a = ap.parse_args()
+    t0 = time.perf_counter()
+    df = mesh_convergence(a.concept, sizes=[float(s) * 1e-3 for s in a.sizes.split(",")])
+    out = Path(__file__).parent / "results"
+    out.mkdir(exist_ok=True)
+    df.to_csv(out / f"torque_sensor_convergence_{a.concept}.csv", index=False)
+    print(df.to_string(index=False))
+    print(f"wall {time.perf_counter() - t0:.1f} s")

@@ -1,0 +1,252 @@
+"""FE analysis of a torque-sensor design: both load cases, both directions, gauge metrics.
+
+See :mod:`proleg.robots.torque_sensor` for the concepts, the envelope, the load cases and the
+bidirectionality model. Outputs (``SensorResult.metrics``):
+
+stiffness [N m/deg], twist [deg] at the torque (case A), max_von_mises [Pa] and where, over
+both cases and directions, excluding a band ``interface_band`` [m] next to the bolted interface
+faces (where the idealised clamp gives a stress singularity), safety_factor = yield / max vM,
+gauge_strain [-] (largest magnitude over the gauges, CW and CCW, both cases),
+strain_in_range (min_gauge_strain <= gauge_strain <= max_gauge_strain), gauge_planar,
+gauge_reachable, gauge_flatness [m], gauge_clearance [m], calibration_ccw / calibration_cw
+[mV/V per N m], calibration_mismatch [-] = |c_ccw - c_cw| / mean, reaction_torque_error [-].
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from ..errors import ConvergenceError, ModelError
+from .torque_sensor import GRID, sensor_design
+
+
+@dataclass
+class SensorResult:
+    """Outcome of :func:`torque_sensor_analysis`: ``metrics`` (dict), ``gauges`` (DataFrame, one
+    row per gauge, case and direction), the ``model`` (SolidModel), ``design`` and the
+    displacement fields ``solutions[(case, direction)]`` (ndof,) [m]."""
+
+    metrics: dict
+    gauges: pd.DataFrame
+    model: object
+    design: object
+    solutions: dict = field(default_factory=dict)
+    von_mises: dict = field(default_factory=dict)  # (case, dir) -> (ne, nq) [Pa]
+    qp_coordinates: np.ndarray | None = None
+
+
+def _facets_on(model, predicate):
+    f = model.mesh.boundary_facets()
+    v = model.mesh.p[:, model.mesh.facets[:, f]]  # (3, 3 vertices, nf)
+    ok = np.all(predicate(v[0], v[1], v[2]), axis=0)
+    return f[ok]
+
+
+def _geometric_stiffness(model, u):
+    """K_sigma = int sigma_ij du_k/dx_i dv_k/dx_j dV for the stress of displacement u."""
+    from skfem import BilinearForm, asm
+
+    G = model.basis.interpolate(u).grad  # (3, 3, ne, nq): G[k, i] = du_k/dx_i
+    eps = 0.5 * (G + np.swapaxes(G, 0, 1))
+    lam, mu = model.material.lame
+    tr = eps[0, 0] + eps[1, 1] + eps[2, 2]
+    S = 2 * mu * eps + lam * tr * np.eye(3)[:, :, None, None]
+
+    @BilinearForm
+    def kg(uu, vv, w):
+        return np.einsum("ij...,ki...,kj...->...", w["S"], uu.grad, vv.grad)
+
+    return asm(kg, model.basis, S=S).tocsr()
+
+
+def _von_mises_qp(model, u):
+    G = model.basis.interpolate(u).grad
+    eps = 0.5 * (G + np.swapaxes(G, 0, 1))
+    lam, mu = model.material.lame
+    tr = eps[0, 0] + eps[1, 1] + eps[2, 2]
+    S = 2 * mu * eps + lam * tr * np.eye(3)[:, :, None, None]
+    dev = S - (S[0, 0] + S[1, 1] + S[2, 2]) / 3 * np.eye(3)[:, :, None, None]
+    return np.sqrt(1.5 * np.einsum("ij...,ij...->...", dev, dev))
+
+
+def _geometry_checks(design, clearance, flatness_tol):
+    """Per gauge: flatness [m] of the true (CAD) surface under the grid, and the free distance [m]
+    in front of it (up to ``clearance``), from gmsh's OpenCASCADE model."""
+    import gmsh
+
+    gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("sensor_check")
+        design.build(gmsh.model.occ)
+        gmsh.model.occ.synchronize()
+        vol = gmsh.model.getEntities(3)[0][1]
+        surfaces = [t for _, t in gmsh.model.getEntities(2)]
+        out = []
+        for g in design.gauges:
+            c, dvec, n = g.center, g.direction, g.normal
+            e2 = np.cross(n, dvec)
+            s = np.linspace(-0.5, 0.5, 5)
+            pts = np.array([c + a * GRID["grid_length"] * dvec + b * GRID["grid_width"] * e2 for a in s for b in s])
+            # the face under the gauge centre: the surface whose closest point is the centre
+            best, tag = np.inf, None
+            for t in surfaces:
+                p = np.asarray(gmsh.model.getClosestPoint(2, t, c)[0])
+                dd = np.linalg.norm(p - c)
+                if dd < best - 1e-12 and gmsh.model.isInside(2, t, p):
+                    best, tag = dd, t
+            proj = np.array([gmsh.model.getClosestPoint(2, tag, p)[0] for p in pts])
+            onface = gmsh.model.isInside(2, tag, proj.ravel())
+            centroid = proj.mean(0)
+            _, _, vt = np.linalg.svd(proj - centroid)
+            flat = float(np.ptp((proj - centroid) @ vt[2]))
+            planar = gmsh.model.getType(2, tag) == "Plane" and onface == len(pts) and flat <= flatness_tol
+            free = clearance
+            for dist in np.linspace(0.25e-3, clearance, 24):
+                if gmsh.model.isInside(3, vol, (proj + (dist + 1e-6) * n).ravel()):
+                    free = float(dist)
+                    break
+            out.append(dict(flatness=flat, planar=bool(planar), clearance=free, reachable=free >= clearance))
+        return out
+    finally:
+        gmsh.finalize()
+
+
+def torque_sensor_analysis(concept: str = "final", torque: float = 140.0, mesh_size: float | None = None, *,
+                           material="al7075-t6", min_gauge_strain: float = 2e-4, max_gauge_strain: float = 6e-4,
+                           gauge_factor: float = 2.0, clearance: float = 0.006, flatness_tol: float = 5e-6,
+                           interface_band: float = 0.002, stress_stiffening: bool = True, refine_gauges: bool = True,
+                           **dimensions) -> SensorResult:
+    """FE analysis of one torque-sensor design (seed 001 Problem 2).
+
+    Parameters
+    ----------
+    concept : "hollow" | "spokes" | "tension_links" | "final"
+    torque : float [N m]          magnitude of the torque (seed 001: ~140 N m), non-zero
+    mesh_size : float [m]         element size (default per concept, 3 mm; gauge regions at half)
+    min_gauge_strain, max_gauge_strain : [-]   the measurable range at the gauge (the text: <= 0.06 %)
+    gauge_factor : [-]            strain-gauge factor for the calibration (2.0: constantan foil)
+    clearance : [m]               free space needed in front of a gauge face (bonding clamp, wiring)
+    flatness_tol : [m]            peak-to-valley flatness under the grid for "planar"
+    interface_band : [m]          band next to the interface faces excluded from max von Mises
+    stress_stiffening : bool      solve each direction with its geometric stiffness (see module doc)
+    **dimensions : [m]            concept dimensions (:data:`proleg.robots.torque_sensor.DEFAULTS`)
+    """
+    from ..fem import SolidModel
+    from ..fem.craig_bampton import _factorize
+    from ..fem.mesh import axial_rotation, mesh_occ, rotation_field, torque_load
+
+    if not (isinstance(torque, int | float) and math.isfinite(torque) and torque != 0):
+        raise ModelError(f"torque_sensor_analysis torque = {torque!r} must be a non-zero finite number [N m] "
+                         "(e.g. 140.0).")
+    T = abs(float(torque))
+    design = sensor_design(concept, mesh_size, **dimensions)
+    t0 = time.perf_counter()
+    h = design.mesh_size
+    refine = [(g.center, 0.004, h / 2) for g in design.gauges] if refine_gauges else None
+    model = SolidModel(*mesh_occ(design.build, h, refine=refine, h_min=h / 4), material, order=2)
+    t_mesh = time.perf_counter() - t0
+    rot = rotation_field(model)
+    cases = {"A": (design.motor_face, design.hd_face), "B": (design.hd_face, design.motor_face)}
+    sols, vms, rows, lin = {}, {}, [], {}
+    react_err, twist_deg = 0.0, None
+    X = model.basis.mapping.F(model.basis.X)  # (3, ne, nq)
+    band = design.interface_distance(X[0], X[1], X[2]) < interface_band
+    for case, (loaded, fixed) in cases.items():
+        lf, ff = _facets_on(model, loaded), _facets_on(model, fixed)
+        if lf.size == 0 or ff.size == 0:
+            raise ModelError(f"torque sensor {concept}: no mesh facet found on the interface faces; refine the mesh.")
+        f1 = torque_load(model, lf, 1.0)
+        fixed_dofs = model.basis.get_dofs(ff).all()
+        free = np.setdiff1d(np.arange(model.ndof), fixed_dofs)
+        Kff = model.K[free][:, free]
+        lu = _factorize(Kff, f"torque sensor {concept}: the fixed face does not hold the part.")
+        u1 = np.zeros(model.ndof)
+        u1[free] = lu.solve(f1[free])
+        react = model.K @ u1 - f1
+        react_err = max(react_err, abs(rot @ react + 1.0))
+        loaded_nodes = np.unique(model.mesh.facets[:, lf])
+        if case == "A":
+            twist_deg = math.degrees(axial_rotation(model, u1, loaded_nodes)) * T
+        Kg = _geometric_stiffness(model, u1)[free][:, free] if stress_stiffening else None
+        for direction, sgn in (("CCW", 1.0), ("CW", -1.0)):
+            u = sgn * T * u1
+            if stress_stiffening:
+                uf0 = u[free].copy()
+                uf = uf0.copy()
+                for it in range(60):
+                    new = uf0 - lu.solve(sgn * T * (Kg @ uf))
+                    dn = np.linalg.norm(new - uf)
+                    uf = new
+                    if dn <= 1e-11 * np.linalg.norm(uf):
+                        break
+                    if not np.isfinite(dn) or it == 59:
+                        raise ConvergenceError(
+                            f"torque sensor {concept}: the stress-stiffened solve did not converge at {T:g} N m "
+                            f"({direction}, case {case}): the links are near buckling. Reduce torque or stiffen the "
+                            "links (link_width, neck_width), or pass stress_stiffening=False.")
+                u = np.zeros(model.ndof)
+                u[free] = uf
+            sols[(case, direction)] = u
+            vm = _von_mises_qp(model, u)
+            vms[(case, direction)] = vm
+            inward = 2e-5 if concept != "hollow" else 1.2 * h**2 / (8 * design.dims["r_out"]) + 2e-5
+            s = np.linspace(-0.4, 0.4, 5) * GRID["grid_length"]
+            P = np.vstack([g.center[None, :] + s[:, None] * g.direction[None, :] - inward * g.normal[None, :]
+                           for g in design.gauges])
+            strain = model.stress_at(u, P).strain.reshape(len(design.gauges), s.size, 3, 3)
+            for gi, g in enumerate(design.gauges):
+                e = float(np.mean(np.einsum("i,kij,j->k", g.direction, strain[gi], g.direction)))
+                rows.append(dict(case=case, direction=direction, gauge=gi, sign=g.sign, strain=e,
+                                 x_mm=g.center[0] * 1e3, y_mm=g.center[1] * 1e3, z_mm=g.center[2] * 1e3))
+    t_solve = time.perf_counter() - t0 - t_mesh
+    gauges = pd.DataFrame(rows)
+    vm_max, where = 0.0, None
+    for key, vm in vms.items():
+        masked = np.where(band, 0.0, vm)
+        i = np.unravel_index(int(np.argmax(masked)), masked.shape)
+        if masked[i] > vm_max:
+            vm_max, where = float(masked[i]), (key, X[:, i[0], i[1]])
+    bridge = gauges.assign(s=gauges.sign * gauges.strain).groupby(["case", "direction"])["s"].mean()
+    cal = {dr: 1e3 * gauge_factor * abs(bridge.loc[("A", dr)]) / T for dr in ("CCW", "CW")}
+    checks = _geometry_checks(design, clearance, flatness_tol)
+    mat = model.material
+    gstrain = float(np.abs(gauges.strain).max())
+    metrics = dict(
+        concept=concept, torque=T, mesh_size=h, n_dofs=int(model.ndof), n_elements=int(model.tets.shape[0]),
+        stiffness=T / twist_deg, twist=twist_deg,
+        max_von_mises=vm_max, max_von_mises_at_mm=None if where is None else (where[1] * 1e3).round(3).tolist(),
+        max_von_mises_radius_mm=None if where is None else float(np.hypot(*where[1][:2]) * 1e3),
+        max_von_mises_case=None if where is None else f"{where[0][0]}/{where[0][1]}",
+        safety_factor=mat.yield_strength / vm_max if vm_max > 0 else math.inf,
+        gauge_strain=gstrain, gauge_strain_bridge=float(np.abs(bridge).max()),
+        strain_in_range=bool(min_gauge_strain <= gstrain <= max_gauge_strain),
+        gauge_planar=all(c["planar"] for c in checks), gauge_flatness=max(c["flatness"] for c in checks),
+        gauge_reachable=all(c["reachable"] for c in checks), gauge_clearance=min(c["clearance"] for c in checks),
+        calibration_ccw=cal["CCW"], calibration_cw=cal["CW"],
+        calibration_mismatch=abs(cal["CCW"] - cal["CW"]) / (0.5 * (cal["CCW"] + cal["CW"])),
+        case_mismatch=float(abs(abs(bridge.loc[("A", "CCW")]) - abs(bridge.loc[("B", "CCW")]))
+                            / abs(bridge.loc[("A", "CCW")])),
+        reaction_torque_error=float(react_err), mass=float(model.mass),
+        time_mesh=t_mesh, time_solve=t_solve,
+    )
+    return SensorResult(metrics, gauges, model, design, sols, vms, X)
+
+
+def mesh_convergence(concept: str = "final", sizes=(0.004, 0.003, 0.002, 0.0015), **kw) -> pd.DataFrame:
+    """Gauge strain, max von Mises, stiffness and calibration on a sequence of meshes (coarse to
+    fine); columns ``*_rel`` are the differences from the finest mesh [-]."""
+    rows = []
+    for h in sizes:
+        m = torque_sensor_analysis(concept, mesh_size=h, **kw).metrics
+        rows.append({k: m[k] for k in ("mesh_size", "n_dofs", "gauge_strain", "max_von_mises", "stiffness",
+                                       "calibration_ccw", "time_solve")})
+    df = pd.DataFrame(rows)
+    for k in ("gauge_strain", "max_von_mises", "stiffness", "calibration_ccw"):
+        df[k + "_rel"] = df[k] / df[k].iloc[-1] - 1.0
+    return df

@@ -1,0 +1,310 @@
+"""HyQ 1-DOF torque sensor: four shape concepts analysed with P2 tetrahedra (seed 001 Problem 2).
+
+Envelope (assumed; seed 001 prints none): the sensor sits between the harmonic drive and the
+motor shaft of a HyQ joint, so it is a flat disc of outer radius ``r_out`` <= 40 mm (the
+output flange of a size-25 harmonic drive, ~85 mm) and thickness <= 15 mm, with a central bore
+``r_bore`` >= 6 mm for the motor shaft. The harmonic-drive (HD) side is the outer cylindrical
+face r = r_out, the motor side the bore face r = r_bore. The hollow-cylinder concept is a tube
+along z instead: HD side the end z = 0, motor side the end z = length.
+
+Concepts (seed 001 §"Discussion", MODEL_DATA §2):
+
+- ``hollow``: a thin tube in torsion, gauges at +-45 deg on the curved outer surface;
+- ``spokes``: hub and outer ring joined by ``n_spokes`` radial spokes (bending), gauges on the
+  spoke side faces next to the hub;
+- ``tension_links``: hub and ring joined by ``n_links`` tangential links at distance ``r_link``
+  from the axis (axial force T / (n r_link)), gauges on the links' outer faces, which face the
+  ring closely (planar but not reachable for bonding);
+- ``final``: the tension links with a thinned gauge section (``neck_width`` x ``neck_length``)
+  and a pocket cut into the ring in front of each gauge face (open space, Fig. 13b).
+
+Load cases (the text's two constraint conditions): "A" HD side fixed, torque on the motor
+side; "B" motor side fixed, torque on the HD side. Directions: CCW (positive torque about +z)
+and CW. Torque enters as tangential traction proportional to the radius
+(:func:`proleg.fem.torque_load`); the fixed face has all DOFs held.
+
+Bidirectionality: in linear elasticity a CW response is exactly minus the CCW one. What makes
+the two directions differ in a tension-link sensor is that the links are stretched one way and
+compressed the other; with ``stress_stiffening=True`` (default) each direction is solved with
+the geometric (differential) stiffness of its own linear stress field, (K + K_sigma) u = f, a
+first-order geometric non-linearity (as Nastran's differential stiffness). A design with a mirror
+plane through the axis (hollow, spokes) stays exactly bidirectional.
+
+Calibration: a full Wheatstone bridge with four active arms reads GF * eps_bridge [V/V], with
+eps_bridge the signed mean gauge strain; the factor is 1e3 GF |eps_bridge| / |T| [mV/V per N m].
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import ConvergenceError, ModelError
+
+ENVELOPE = {"r_out": 0.040, "thickness": 0.015, "r_bore": 0.006}  # [m]: max, max, min (assumed)
+
+DEFAULTS = {
+    "hollow": dict(r_out=0.030, wall=0.004, length=0.015),
+    "spokes": dict(r_bore=0.007, r_hub=0.014, r_ring=0.030, r_out=0.038, thickness=0.010, n_spokes=4,
+                   spoke_width=0.008, fillet=0.001),
+    "tension_links": dict(r_bore=0.007, r_hub=0.015, r_ring=0.024, r_out=0.036, thickness=0.010, n_links=4,
+                          r_link=0.011, link_width=0.006, fillet=0.001),
+    "final": dict(r_bore=0.007, r_hub=0.015, r_ring=0.026, r_out=0.038, thickness=0.010, n_links=4,
+                  r_link=0.011, link_width=0.007, neck_width=0.004, neck_length=0.006, pocket_depth=0.004,
+                  fillet=0.001),
+}
+DEFAULT_MESH = {"hollow": 0.003, "spokes": 0.004, "tension_links": 0.004, "final": 0.004}
+GRID = dict(grid_length=0.003, grid_width=0.002)  # strain-gauge grid [m]
+CONCEPTS = tuple(DEFAULTS)
+
+
+@dataclass
+class Gauge:
+    """A strain gauge: centre (3,) [m] on the surface, unit ``direction`` of the grid, outward unit
+    ``normal`` of the face, bridge ``sign`` (+1 or -1)."""
+
+    center: np.ndarray
+    direction: np.ndarray
+    normal: np.ndarray
+    sign: float = 1.0
+
+
+@dataclass
+class SensorDesign:
+    """Geometry of one concept: OCC builder, gauges and the interface faces."""
+
+    concept: str
+    dims: dict
+    mesh_size: float
+    build: object
+    gauges: list
+    motor_face: object  # vertex predicate (x, y, z) -> bool
+    hd_face: object
+    interface_distance: object  # (x, y, z) -> distance to the nearest interface [m]
+
+
+def _rot(v, a):
+    c, s = math.cos(a), math.sin(a)
+    return np.array([c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]])
+
+
+def _positive(dims, names):
+    for k in names:
+        v = dims[k]
+        if not (isinstance(v, int | float | np.floating | np.integer) and math.isfinite(v) and v > 0):
+            raise ModelError(f"torque sensor dimension {k} = {v!r} must be a positive number [m].")
+
+
+def _wall(dims, name, value, h):
+    """A wall needs one quadratic element across: value >= mesh_size / 2 (gauge regions are meshed at h/2)."""
+    if value < 0.5 * h:
+        raise ModelError(f"torque sensor {name}: the wall is {value * 1e3:.3g} mm, thinner than half the mesh size "
+                         f"({h * 5e2:.3g} mm); increase {name} or pass a smaller mesh_size.")
+
+
+def sensor_design(concept: str, mesh_size: float | None = None, **dimensions) -> SensorDesign:
+    """Validate the dimensions of ``concept`` (defaults in :data:`DEFAULTS`, [m]) and return its
+    :class:`SensorDesign`. Bad geometry raises ModelError naming the parameter."""
+    if concept not in DEFAULTS:
+        raise ModelError(f"torque sensor concept '{concept}' is unknown; use one of {CONCEPTS}.")
+    unknown = set(dimensions) - set(DEFAULTS[concept])
+    if unknown:
+        raise ModelError(f"torque sensor concept '{concept}' has no dimension(s) {sorted(unknown)}; "
+                         f"valid: {sorted(DEFAULTS[concept])}.")
+    d = {**DEFAULTS[concept], **dimensions}
+    h = DEFAULT_MESH[concept] if mesh_size is None else mesh_size
+    if not (isinstance(h, int | float) and math.isfinite(h) and h > 0):
+        raise ModelError(f"torque sensor mesh_size = {mesh_size!r} must be a positive length [m].")
+    count = "n_spokes" if concept == "spokes" else "n_links"
+    if count in d and (int(d[count]) != d[count] or not 2 <= d[count] <= 8):
+        raise ModelError(f"torque sensor {count} = {d[count]!r} must be an integer in 2..8.")
+    _positive(d, [k for k in d if k not in (count, "fillet")])
+    if d["r_out"] > ENVELOPE["r_out"] + 1e-12:
+        raise ModelError(f"torque sensor r_out = {d['r_out'] * 1e3:.4g} mm exceeds the envelope "
+                         f"({ENVELOPE['r_out'] * 1e3:g} mm between harmonic drive and motor); reduce r_out.")
+    if concept == "hollow":
+        return _hollow(d, h)
+    if d["thickness"] > ENVELOPE["thickness"] + 1e-12:
+        raise ModelError(f"torque sensor thickness = {d['thickness'] * 1e3:.4g} mm exceeds the envelope "
+                         f"({ENVELOPE['thickness'] * 1e3:g} mm); reduce thickness.")
+    if d["r_bore"] < ENVELOPE["r_bore"] - 1e-12:
+        raise ModelError(f"torque sensor r_bore = {d['r_bore'] * 1e3:.4g} mm is below the motor shaft "
+                         f"({ENVELOPE['r_bore'] * 1e3:g} mm); increase r_bore.")
+    for a, b in (("r_bore", "r_hub"), ("r_hub", "r_ring"), ("r_ring", "r_out")):
+        if not d[a] < d[b]:
+            raise ModelError(f"torque sensor {b} = {d[b] * 1e3:.4g} mm must exceed {a} = {d[a] * 1e3:.4g} mm "
+                             "(the rings would self-intersect); increase " + b + ".")
+    _wall(d, "r_hub", d["r_hub"] - d["r_bore"], h)
+    _wall(d, "thickness", d["thickness"], h)
+    return _spokes(d, h) if concept == "spokes" else _links(d, h, final=concept == "final")
+
+
+def _planar_faces(d):
+    tol = 1e-6
+
+    def motor(x, y, z):
+        return np.abs(np.hypot(x, y) - d["r_bore"]) < tol * 10
+
+    def hd(x, y, z):
+        return np.abs(np.hypot(x, y) - d["r_out"]) < tol * 10
+
+    def dist(x, y, z):
+        r = np.hypot(x, y)
+        return np.minimum(r - d["r_bore"], d["r_out"] - r)
+
+    return motor, hd, dist
+
+
+def _hollow(d, h):
+    _wall(d, "wall", d["wall"], h)
+    if d["wall"] >= d["r_out"] - ENVELOPE["r_bore"]:
+        raise ModelError(f"torque sensor wall = {d['wall'] * 1e3:.4g} mm leaves no bore for the motor shaft "
+                         f"(r_out - wall < {ENVELOPE['r_bore'] * 1e3:g} mm); reduce wall.")
+    ro, ri, L = d["r_out"], d["r_out"] - d["wall"], d["length"]
+
+    def build(occ):
+        a = occ.addCylinder(0, 0, 0, 0, 0, L, ro)
+        b = occ.addCylinder(0, 0, 0, 0, 0, L, ri)
+        occ.cut([(3, a)], [(3, b)])
+
+    gauges = []
+    for k in range(4):
+        phi = k * math.pi / 2
+        n = np.array([math.cos(phi), math.sin(phi), 0.0])
+        t = np.array([-math.sin(phi), math.cos(phi), 0.0])
+        s = 1.0 if k % 2 == 0 else -1.0
+        ez = np.array([0.0, 0.0, 1.0])
+        gauges.append(Gauge(np.array([ro * n[0], ro * n[1], L / 2]), (t + s * ez) / math.sqrt(2), n, s))
+    return SensorDesign("hollow", d, h, build, gauges,
+                        lambda x, y, z: np.abs(z - L) < 1e-9, lambda x, y, z: np.abs(z) < 1e-9,
+                        lambda x, y, z: np.minimum(z, L - z))
+
+
+def _fillet_vertical(occ, vol, d):
+    """Round the vertical (z-parallel) edges with radius ``fillet`` (not the interface circles)."""
+    r = d.get("fillet", 0.0)
+    if not r:
+        return
+    occ.synchronize()
+    edges = []
+    for _, c in occ.getEntities(1):
+        x0, y0, z0, x1, y1, z1 = occ.getBoundingBox(1, c)
+        if abs(x1 - x0) < 1e-9 and abs(y1 - y0) < 1e-9 and abs(z1 - z0 - d["thickness"]) < 1e-9:
+            rr = math.hypot(x0, y0)
+            if abs(rr - d["r_bore"]) > 1e-7 and abs(rr - d["r_out"]) > 1e-7:
+                edges.append(c)
+    if edges:
+        occ.fillet([vol], edges, [r], removeVolume=True)
+
+
+def _disc_parts(occ, d):
+    ring = occ.addDisk(0, 0, 0, d["r_out"], d["r_out"])
+    ring_in = occ.addDisk(0, 0, 0, d["r_ring"], d["r_ring"])
+    ring, _ = occ.cut([(2, ring)], [(2, ring_in)])
+    hub = occ.addDisk(0, 0, 0, d["r_hub"], d["r_hub"])
+    return ring, hub
+
+
+def _finish(occ, parts, d, cuts=()):
+    fused, _ = occ.fuse(parts[:1], parts[1:])
+    bore = occ.addDisk(0, 0, 0, d["r_bore"], d["r_bore"])
+    prof, _ = occ.cut(fused, [(2, bore)] + list(cuts))
+    ext = occ.extrude(prof, 0, 0, d["thickness"])
+    vols = [e for e in ext if e[0] == 3]
+    if len(vols) != 1:
+        raise ModelError(f"torque sensor geometry fell apart into {len(vols)} solids; check the link/spoke "
+                         "dimensions (they must join hub and ring).")
+    try:
+        _fillet_vertical(occ, vols[0][1], d)
+    except Exception as exc:  # OCC fillet failure: the radius does not fit
+        raise ModelError(f"torque sensor fillet = {d['fillet'] * 1e3:.3g} mm does not fit the edges of this "
+                         f"geometry ({exc}); reduce fillet (0 for sharp corners).") from None
+
+
+def _spokes(d, h):
+    n, w = int(d["n_spokes"]), d["spoke_width"]
+    _wall(d, "spoke_width", w, h)
+    _wall(d, "r_ring", d["r_out"] - d["r_ring"], h)
+    if n * w > 1.6 * d["r_hub"] * math.pi * 2 / 2:
+        raise ModelError(f"torque sensor spoke_width = {w * 1e3:.3g} mm: {n} spokes overlap at the hub; "
+                         "reduce spoke_width or n_spokes.")
+    x_hub = math.sqrt(d["r_hub"] ** 2 - (w / 2) ** 2)
+    xg = x_hub + d["fillet"] + GRID["grid_length"] / 2 + 0.5e-3
+    if xg + GRID["grid_length"] / 2 > d["r_ring"] - d["fillet"]:
+        raise ModelError("torque sensor r_ring: the spokes are too short for a 3 mm gauge grid; increase r_ring.")
+    xe = 0.5 * (d["r_ring"] + d["r_out"])
+
+    def build(occ):
+        ring, hub = _disc_parts(occ, d)
+        parts = ring + [(2, hub)]
+        for k in range(n):
+            s = occ.addRectangle(0, -w / 2, 0, xe, w)
+            occ.rotate([(2, s)], 0, 0, 0, 0, 0, 1, 2 * math.pi * k / n)
+            parts.append((2, s))
+        _finish(occ, parts, d)
+
+    gauges = [Gauge(_rot(np.array([xg, w / 2, d["thickness"] / 2]), 2 * math.pi * k / n),
+                    _rot(np.array([1.0, 0, 0]), 2 * math.pi * k / n), _rot(np.array([0, 1.0, 0]), 2 * math.pi * k / n))
+              for k in range(n)]
+    return SensorDesign("spokes", d, h, build, gauges, *_planar_faces(d))
+
+
+def _links(d, h, final):
+    n, w, rl = int(d["n_links"]), d["link_width"], d["r_link"]
+    _wall(d, "link_width", w, h)
+    depth = d.get("pocket_depth", 0.0) if final else 0.0
+    _wall(d, "pocket_depth" if final else "r_ring", d["r_out"] - d["r_ring"] - depth, h)
+    if rl + w / 2 >= d["r_hub"] - 1e-4:
+        raise ModelError(f"torque sensor r_link = {rl * 1e3:.4g} mm: the link (width {w * 1e3:.3g} mm) must start "
+                         f"inside the hub (r_link + link_width/2 < r_hub = {d['r_hub'] * 1e3:.4g} mm); reduce r_link.")
+    x0 = math.sqrt(max(0.0, (0.5 * (d["r_bore"] + d["r_hub"])) ** 2 - (rl - w / 2) ** 2))  # link root in the hub
+    x_hub = math.sqrt(d["r_hub"] ** 2 - rl**2)
+    x_ring = math.sqrt(d["r_ring"] ** 2 - (rl + w / 2) ** 2)
+    free = x_ring - x_hub
+    need = (d["neck_length"] if final else GRID["grid_length"]) + 2 * d["fillet"] + 1e-3
+    if free < need:
+        raise ModelError(f"torque sensor r_ring = {d['r_ring'] * 1e3:.4g} mm: the links' free length "
+                         f"{free * 1e3:.3g} mm is shorter than the {need * 1e3:.3g} mm the gauge section needs; "
+                         "increase r_ring or reduce r_hub.")
+    if n > 2 and math.sin(2 * math.pi / n) * (x_hub) < w:  # neighbouring links overlap next to the hub
+        raise ModelError(f"torque sensor n_links = {n}: neighbouring links intersect next to the hub; "
+                         "reduce n_links or link_width.")
+    xg = 0.5 * (x_hub + x_ring)
+    yface = rl + (d["neck_width"] if final else w) / 2
+    if final:
+        _wall(d, "neck_width", d["neck_width"], h)
+        if d["neck_width"] >= w:
+            raise ModelError(f"torque sensor neck_width = {d['neck_width'] * 1e3:.3g} mm must be smaller than "
+                             f"link_width = {w * 1e3:.3g} mm.")
+        if d["neck_length"] < GRID["grid_length"] + 1e-3:
+            raise ModelError("torque sensor neck_length must exceed the 3 mm gauge grid by 1 mm.")
+    xe = math.sqrt(((d["r_ring"] + d["r_out"] - depth) / 2) ** 2 - (rl + w / 2) ** 2)
+
+    def build(occ):
+        ring, hub = _disc_parts(occ, d)
+        parts = ring + [(2, hub)]
+        cuts = []
+        for k in range(n):
+            a = 2 * math.pi * k / n
+            s = occ.addRectangle(x0, rl - w / 2, 0, xe - x0, w)
+            occ.rotate([(2, s)], 0, 0, 0, 0, 0, 1, a)
+            parts.append((2, s))
+            if final:
+                nl, dw = d["neck_length"], (w - d["neck_width"]) / 2
+                for y0 in (rl - w / 2 - 1e-4, rl + d["neck_width"] / 2):
+                    c = occ.addRectangle(xg - nl / 2, y0, 0, nl, dw + 1e-4)
+                    occ.rotate([(2, c)], 0, 0, 0, 0, 0, 1, a)
+                    cuts.append((2, c))
+                ytop = math.sqrt((d["r_ring"] + depth) ** 2 - (xg - nl / 2) ** 2)
+                p = occ.addRectangle(xg - nl / 2, rl + w / 2 + 1e-4, 0, nl, ytop - rl - w / 2)
+                occ.rotate([(2, p)], 0, 0, 0, 0, 0, 1, a)
+                cuts.append((2, p))
+        _finish(occ, parts, d, cuts)
+
+    gauges = [Gauge(_rot(np.array([xg, yface, d["thickness"] / 2]), 2 * math.pi * k / n),
+                    _rot(np.array([1.0, 0, 0]), 2 * math.pi * k / n), _rot(np.array([0, 1.0, 0]), 2 * math.pi * k / n))
+              for k in range(n)]
+    return SensorDesign("final" if final else "tension_links", d, h, build, gauges, *_planar_faces(d))
