@@ -20,7 +20,7 @@ back controller's switch from a stance state to flight (the robot's own detectio
 Specific resistance ε = P / (m g v) (Eq. 8) with m the whole robot's mass.
 
 Steady state: strides that start after ``transient`` seconds. :func:`detect_period` classifies
-their sequence as period one (every stride alike), period two (alternate strides alike, the
+the last ``PERIOD_WINDOW`` of them as period one (every stride alike), period two (alternate strides alike, the
 "quasi-bounding" gait of §5.3 at 0.8 m/s) or 0 (no steady gait, or the robot fell).
 """
 
@@ -42,6 +42,7 @@ from .scout2 import LEGS, scout2
 __all__ = ["BoundRun", "scout2_bound", "stride_table", "gait_metrics", "detect_period", "energy_balance", "pitch_deg"]
 
 G = 9.81
+PERIOD_WINDOW = 10  # the period is judged on the last this-many steady strides (a converged gait)
 
 
 @dataclass
@@ -171,7 +172,7 @@ def gait_metrics(result: Result, strides: pd.DataFrame, system: System, *, trans
         return float(np.sum(steady[col].to_numpy() * tw) / np.sum(tw))
 
     out.update(
-        period=detect_period(feats, tol=period_tol),
+        period=detect_period(feats[-PERIOD_WINDOW:], tol=period_tol),
         forward_speed=v,
         stride_frequency=float(len(steady) / np.sum(tw)),
         duty_factor_back=wmean("duty back [-]"),
