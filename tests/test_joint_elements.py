@@ -234,3 +234,17 @@ def test_state_machine_unknown_signal_is_a_model_error_at_assembly():
     m.add_controller(pl.StateMachine("legctl", {"a": lambda t, s, mem: {}, "b": lambda t, s, mem: {}}, [("a", "b", guard)], "a", ["motor"]))
     with pytest.raises(ModelError, match="StateMachine 'legctl'.*no contact named 'toe'"):
         pl.assemble(m)
+
+
+def test_model_file_round_trip_with_coupler_stop_and_friction(tmp_path):
+    from proleg.io import dump_model, load_model_file
+
+    m = gear_pair()
+    m.add_force(pl.JointStop("stop", m.joint("jb"), upper=0.5, stiffness=1e3))
+    m.add_force(pl.JointFriction("fr", m.joint("ja"), damping=1e-3))
+    path = dump_model(m, tmp_path / "gears.yaml")
+    m2, _ = load_model_file(path)
+    assert [c.name for c in m2.couplers] == ["gear"] and m2.couplers[0].ratio == R
+    a = pl.simulate(pl.assemble(m), t_end=0.5, dt_output=0.1)
+    b = pl.simulate(pl.assemble(m2), t_end=0.5, dt_output=0.1)
+    np.testing.assert_allclose(a.coupler("gear").torque_2, b.coupler("gear").torque_2, rtol=1e-9)

@@ -29,7 +29,8 @@ or markers; without ``at`` both name markers.
 forces: ``spring_damper``, ``rotational_spring_damper`` (``joint:`` a joint name, or ``i``/``j``
 markers), ``bushing`` (``stiffness``/``damping`` as 6-lists or 6x6 lists, ``preload``,
 ``free``), ``force`` and ``torque`` (``part`` a part or marker name, constant ``value`` (3,)
-in ground components, optional ``at``). Elements are built in file order: parts, markers,
+in ground components, optional ``at``), ``joint_stop`` and ``joint_friction`` (``joint:`` a joint
+name). couplers: ``name``, ``joint_1``, ``joint_2``, ``ratio`` (q1 = r q2). Elements are built in file order: parts, markers,
 joints, forces, so a force may name the markers a joint creates (``<joint>.I``, ``<joint>.J``).
 
 Every problem — YAML syntax, unknown or missing field, wrong type or shape, unknown name,
@@ -63,6 +64,9 @@ from .modelspec import (  # noqa: F401
     SECTIONS,
     Axis,
     BushingSpec,
+    CouplerSpec,
+    JointFrictionSpec,
+    JointStopSpec,
     CylindricalSpec,
     FixedSpec,
     ForceElementSpec,
@@ -372,6 +376,13 @@ def _build(spec: ModelFile, where: _Where) -> Model:
         _build_joint(model, where, ("joints", n), js, guard)
     for n, fs in enumerate(spec.forces):
         _build_force(model, where, ("forces", n), fs, guard)
+    from ..model.couplers import Coupler
+
+    for n, cs in enumerate(spec.couplers):
+        path = ("couplers", n)
+        j1 = _lookup(model, where, path + ("joint_1",), cs.joint_1, ("joint",), " Define it under 'joints:'.")
+        j2 = _lookup(model, where, path + ("joint_2",), cs.joint_2, ("joint",), " Define it under 'joints:'.")
+        guard(path, lambda cs=cs, j1=j1, j2=j2: model.add_coupler(Coupler(cs.name, j1, j2, cs.ratio, dof=cs.dof)))
     return model
 
 
@@ -428,6 +439,13 @@ def _build_force(model, where, path, fs, guard):
     elif isinstance(fs, BushingSpec):
         i, j = marker("i"), marker("j")
         make = lambda: _f.Bushing(fs.name, i, j, fs.stiffness, fs.damping, fs.preload, fs.free)  # noqa: E731
+    elif isinstance(fs, JointStopSpec | JointFrictionSpec):
+        from ..model.couplers import JointFriction, JointStop
+
+        joint = _lookup(model, where, path + ("joint",), fs.joint, ("joint",), " Joints must come before forces.")
+        kw = fs.model_dump(exclude={"type", "name", "joint"})
+        cls = JointStop if isinstance(fs, JointStopSpec) else JointFriction
+        make = lambda: cls(fs.name, joint, **kw)  # noqa: E731
     else:
         cls = _f.Force if isinstance(fs, ForceSpec) else _f.Torque
         target = _lookup(model, where, path + ("part",), fs.part, ("part", "marker"))

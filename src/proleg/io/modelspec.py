@@ -17,7 +17,7 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
 
 from ..model import joints as _j
 
-SECTIONS = ("parts", "markers", "joints", "forces")
+SECTIONS = ("parts", "markers", "joints", "forces", "couplers")
 
 
 # ------------------------------------------------------------------------------------------
@@ -185,8 +185,39 @@ class TorqueSpec(_Spec):
     at: Vec3 | None = Field(None, description="application point [m] in ground (irrelevant for a pure torque)")
 
 
+class JointStopSpec(_Spec):
+    type: Literal["joint_stop"]
+    name: str = Field(description="force element name, unique")
+    joint: str = Field(description="the joint whose coordinate is limited")
+    lower: float | None = Field(None, description="[m or rad] lower limit of the coordinate")
+    upper: float | None = Field(None, description="[m or rad] upper limit of the coordinate")
+    stiffness: float = Field(1e5, gt=0, description="[N/m^e or N m/rad^e], > 0")
+    exponent: float = Field(1.0, ge=1, description="[-], >= 1")
+    damping: float = Field(0.0, ge=0, description="[N s/m or N m s/rad], >= 0")
+    penetration: float = Field(1e-3, gt=0, description="[m or rad] depth of full damping, > 0")
+
+
+class JointFrictionSpec(_Spec):
+    type: Literal["joint_friction"]
+    name: str = Field(description="force element name, unique")
+    joint: str = Field(description="the joint with friction")
+    friction: float = Field(0.0, ge=0, description="[N m or N] Coulomb torque or force, >= 0")
+    damping: float = Field(0.0, ge=0, description="[N m s/rad or N s/m] viscous, >= 0")
+    slip_rate: float = Field(0.01, gt=0, description="[rad/s or m/s] smoothing rate, > 0")
+
+
+class CouplerSpec(_Spec):
+    """A gear constraint θ₁ = r θ₂ between two joints' coordinates (Adams COUPLER)."""
+
+    name: str = Field(description="coupler name, unique")
+    joint_1: str = Field(description="the first (fast, for r > 1) joint")
+    joint_2: str = Field(description="the second joint")
+    ratio: float = Field(description="r in q1 = r q2, non-zero")
+    dof: Literal["rotation", "translation"] | None = Field(None, description="needed for cylindrical joints")
+
+
 ForceElementSpec = Annotated[
-    SpringDamperSpec | RotationalSpringDamperSpec | BushingSpec | ForceSpec | TorqueSpec,
+    SpringDamperSpec | RotationalSpringDamperSpec | BushingSpec | ForceSpec | TorqueSpec | JointStopSpec | JointFrictionSpec,
     Field(discriminator="type"),
 ]
 
@@ -211,6 +242,7 @@ class ModelFile(_Spec):
     markers: list[MarkerSpec] = Field(default_factory=list, description="frames on parts")
     joints: list[JointSpec] = Field(default_factory=list, description="joints")
     forces: list[ForceElementSpec] = Field(default_factory=list, description="force elements")
+    couplers: list[CouplerSpec] = Field(default_factory=list, description="gear constraints between joints")
     simulate: SimulateSpec | None = Field(None, description="defaults for the CLI")
 
 
@@ -231,6 +263,8 @@ _FORCE_SPECS = {
     "bushing": BushingSpec,
     "force": ForceSpec,
     "torque": TorqueSpec,
+    "joint_stop": JointStopSpec,
+    "joint_friction": JointFrictionSpec,
 }
 _JOINT_CLASSES = {
     "revolute": _j.Revolute,

@@ -109,6 +109,11 @@ def model_to_dict(model: Model, simulate: dict | None = None) -> dict:
         joints.append(d)
     forces = [_force_to_dict(fe) for fe in model.forces]
     out.update(parts=parts, markers=markers, joints=joints, forces=forces)
+    if getattr(model, "couplers", None):
+        out["couplers"] = [
+            {"name": c.name, "joint_1": c.joint_1.name, "joint_2": c.joint_2.name, "ratio": float(c.ratio), "dof": c.dof}
+            for c in model.couplers
+        ]
     if simulate:
         out["simulate"] = SimulateSpec.model_validate(simulate).model_dump(exclude_none=True)
     return out
@@ -146,6 +151,11 @@ def _force_to_dict(fe) -> dict:
         d["value"] = _vec(fe.value)
         if fe.at is not None:
             d["at"] = _vec(fe.at)
+    elif fe.kind == "joint_stop":
+        d.update(joint=fe.joint.name, stiffness=fe.stiffness, exponent=fe.exponent, damping=fe.damping, penetration=fe.penetration)
+        d.update({k: float(getattr(fe, k)) for k in ("lower", "upper") if np.isfinite(getattr(fe, k))})
+    elif fe.kind == "joint_friction":
+        d.update(joint=fe.joint.name, friction=fe.friction, damping=fe.damping, slip_rate=fe.slip_rate)
     else:
         raise ModelError(f"Force element {fe!r} ({type(fe).__name__}) cannot be written to a model file yet.")
     return {k: (float(v) if isinstance(v, float | np.floating) else v) for k, v in d.items()}
