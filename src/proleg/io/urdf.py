@@ -194,7 +194,7 @@ def _check_inertia(J):
     """None if ``J`` is a valid inertia tensor, else a description of what is wrong."""
     w = np.linalg.eigvalsh(0.5 * (J + J.T))
     if w.min() <= 0:
-        return f"not positive definite (principal moments {np.round(w, 12).tolist()} kg m^2)"
+        return f"is not positive definite (principal moments {np.round(w, 12).tolist()} kg m^2)"
     if w[0] + w[1] < w[2] * (1 - 1e-9):
         return f"violates the triangle inequality (principal moments {np.round(w, 12).tolist()} kg m^2)"
     return None
@@ -345,7 +345,7 @@ def load_urdf(
             if m > 0 and (bad := _check_inertia(J)) is not None:
                 if len(members) == 1:
                     raise ModelError(
-                        f"{where}: link '{ln}' inertia is {bad}. Give a physical inertia tensor about the COM "
+                        f"{where}: link '{ln}' inertia {bad}. Give a physical inertia tensor about the COM "
                         "(every principal moment > 0, each at most the sum of the other two)."
                     )
                 notes.append(f"link '{ln}': inertia {bad}; merged into part '{g}' whose total inertia is used")
@@ -363,7 +363,7 @@ def load_urdf(
             d = c - com
             Jt += J + m * (d @ d * np.eye(3) - np.outer(d, d))
         if (bad := _check_inertia(Jt)) is not None:
-            raise ModelError(f"{where}: the inertia of link(s) {members} is {bad}. Give physical inertia tensors.")
+            raise ModelError(f"{where}: the inertia of link(s) {members} {bad}. Give physical inertia tensors.")
         Xb = X_W[g] @ _X(p=com)
         body_X[g] = Xb
         model.add_part(g, M, Jt, Xb[:3, 3], Xb[:3, :3])
