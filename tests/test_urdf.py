@@ -128,3 +128,19 @@ def test_missing_file_and_missing_mesh(tmp_path):
     with pytest.warns(UrdfWarning, match=r"visual mesh 'package://r/meshes/b.stl' of link 'b' not found"):
         m = load_urdf(_write(tmp_path, BAD_JOINT.format(m=1, ixx=1, vis=vis, jt="revolute")))
     assert m.urdf.visuals == [] and any("b.stl" in n for n in m.urdf.notes)
+
+
+def test_cli_info_on_urdf():
+    import json
+
+    from typer.testing import CliRunner
+
+    from proleg.cli.main import app
+
+    out = CliRunner().invoke(app, ["info", str(DATA), "--fixed-base", "--json"])
+    assert out.exit_code == 0, out.output
+    d = json.loads(out.stdout)
+    assert d["parts"] == ["thigh", "shank"] and d["dof_rank"] == 2 and d["mass_kg"] == pytest.approx(2.4)
+    assert any("welded" in n for n in d["urdf: dropped or approximated"])
+    bad = CliRunner().invoke(app, ["info", str(DATA)])  # floating: 'base' has no mass
+    assert bad.exit_code == 2 and "zero mass" in bad.output

@@ -34,11 +34,19 @@ def main(version: bool = typer.Option(False, "--version", callback=_version, is_
     """proleg: virtual prototyping of legged robots (multibody dynamics in JAX, float64)."""
 
 
-def _load(model_path: Path):
+def _load(model_path: Path, fixed_base: bool = False):
     from proleg.errors import ModelError
     from proleg.io import load_model_file
 
     try:
+        if model_path.suffix.lower() == ".urdf":
+            import warnings
+
+            from proleg.io.urdf import load_urdf
+
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                return load_urdf(model_path, floating_base=not fixed_base), {}
         return load_model_file(model_path)
     except ModelError as exc:
         console.print(f"[red]error:[/] {exc}")
@@ -46,14 +54,18 @@ def _load(model_path: Path):
 
 
 @app.command()
-def info(model: Path = typer.Argument(..., help="Model file (YAML)."), json_out: bool = typer.Option(False, "--json")):
+def info(
+    model: Path = typer.Argument(..., help="Model file (YAML or .urdf)."),
+    json_out: bool = typer.Option(False, "--json"),
+    fixed_base: bool = typer.Option(False, "--fixed-base", help="URDF: weld the root link to ground (default: floating base)."),
+):
     """Parts, markers, joints, elements, degrees of freedom (Gruebler and Jacobian rank), redundant constraints."""
     import warnings
 
     import proleg as pl
     from proleg.assembly.system import dof_report
 
-    mdl, _ = _load(model)
+    mdl, _ = _load(model, fixed_base)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         system = pl.assemble(mdl)
@@ -73,6 +85,9 @@ def info(model: Path = typer.Argument(..., help="Model file (YAML)."), json_out:
         # What simulate's coordinates="auto" runs on (assembly/coordinates.py).
         "coordinates": "planar (3 per part)" if system.topo.planar[0] is not None else f"absolute (not planar: {system.topo.planar[1]})",
     }
+    if getattr(mdl, "urdf", None) is not None:
+        data["mass_kg"] = round(sum(p.mass for p in mdl.parts), 6)
+        data["urdf: dropped or approximated"] = list(mdl.urdf.notes)
     if json_out:
         typer.echo(json.dumps(data))
         return
