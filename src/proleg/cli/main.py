@@ -160,6 +160,40 @@ def run(
     console.print(f"[green]done:[/] {path}")
 
 
+@app.command()
+def view(
+    result: Path = typer.Argument(..., help="Result Parquet file (Result.to_parquet, proleg simulate, proleg run)."),
+    model: Path = typer.Option(None, "--model", help="Model file (.urdf or YAML) for the part shapes (URDF meshes)."),
+    fixed_base: bool = typer.Option(False, "--fixed-base", help="URDF: the root link was welded to ground."),
+    out: Path = typer.Option(None, "--out", help="HTML file to write (default: next to the Parquet file)."),
+    open_: bool = typer.Option(True, "--open/--no-open", help="Open the page in the default browser."),
+):
+    """Write a self-contained 3D animation (HTML, opens offline) of a result file, and open it."""
+    import pandas as pd
+
+    from proleg.report.animate import page, scene_from_frame
+
+    if not result.is_file():
+        console.print(f"[red]error:[/] result file {result} not found.")
+        raise typer.Exit(2)
+    df = pd.read_parquet(result)
+    if "time [s]" not in df.columns:
+        console.print(f"[red]error:[/] {result} has no 'time [s]' column; expected a file written by Result.to_parquet.")
+        raise typer.Exit(2)
+    mdl = _load(model, fixed_base)[0] if model is not None else None
+    scene = scene_from_frame(df, model=mdl)
+    if not scene["parts"]:
+        console.print(f"[red]error:[/] {result} has no part pose columns ('NAME.x [m]', 'NAME.e0', ...).")
+        raise typer.Exit(2)
+    out = out or result.with_suffix(".html")
+    out.write_text(page(scene, f"proleg: {result.name}"), encoding="utf-8")
+    console.print(f"wrote {out}")
+    if open_:
+        import webbrowser
+
+        webbrowser.open(out.resolve().as_uri())
+
+
 def _register_optional():
     for modname in ("proleg.cli.prbm", "proleg.cli.identify"):
         try:
