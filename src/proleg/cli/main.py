@@ -18,6 +18,7 @@ SCENARIOS = {
     "hyq-drop": ("proleg.robots.hyq_tests", "run_drop", "HyQ leg drop test: rigid vs 4 vs 8 bushings, HTML report (main job)"),
     "hyq-static": ("proleg.robots.hyq_tests", "run_static", "HyQ leg static test, payload 0/3/7 kg"),
     "hyq-quasistatic": ("proleg.robots.hyq_tests", "run_quasistatic", "HyQ leg quasi-static cycles: force-stroke loops"),
+    "hyq-stand": ("proleg.robots.hyq", "run_stand", "Whole HyQ from its URDF: drop 10 cm, settle on four feet, GRF and torques vs statics, 3D animation"),
 }
 
 
