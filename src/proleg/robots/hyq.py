@@ -14,6 +14,12 @@ its stance, HyQ lands on four feet and settles; the report compares
 * every servo torque with the static closed form τ_k = −a_k · Σ_distal (r − p_k) × F (the
   moment, about joint k's axis a_k through its origin p_k, of the gravity of every part beyond
   the joint and of the foot's ground reaction).
+
+Status (issue 19): the model, the closed forms and the report are written and the model tests
+pass; the 1.5 s drop-and-settle simulation did not finish within 25 minutes on the shared
+2-core development machine (suspect: foot stiction with v_stiction = 1 mm/s forcing small
+steps, to be profiled), so the 1 % checks (tests/test_hyq_robot.py::test_hyq_stand, slow)
+have not been seen passing yet.
 """
 
 from __future__ import annotations
