@@ -41,11 +41,19 @@ def main(version: bool = typer.Option(False, "--version", callback=_version, is_
     """proleg: virtual prototyping of legged robots (multibody dynamics in JAX, float64)."""
 
 
-def _load(model_path: Path):
+def _load(model_path: Path, fixed_base: bool = False):
     from proleg.errors import ModelError
     from proleg.io import load_model_file
 
     try:
+        if model_path.suffix.lower() == ".urdf":
+            import warnings
+
+            from proleg.io.urdf import load_urdf
+
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                return load_urdf(model_path, floating_base=not fixed_base), {}
         return load_model_file(model_path)
     except ModelError as exc:
         console.print(f"[red]error:[/] {exc}")
@@ -53,14 +61,18 @@ def _load(model_path: Path):
 
 
 @app.command()
-def info(model: Path = typer.Argument(..., help="Model file (YAML)."), json_out: bool = typer.Option(False, "--json")):
+def info(
+    model: Path = typer.Argument(..., help="Model file (YAML or .urdf)."),
+    json_out: bool = typer.Option(False, "--json"),
+    fixed_base: bool = typer.Option(False, "--fixed-base", help="URDF: weld the root link to ground (default: floating base)."),
+):
     """Parts, markers, joints, elements, degrees of freedom (Gruebler and Jacobian rank), redundant constraints."""
     import warnings
 
     import proleg as pl
     from proleg.assembly.system import dof_report
 
-    mdl, _ = _load(model)
+    mdl, _ = _load(model, fixed_base)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         system = pl.assemble(mdl)
@@ -80,6 +92,9 @@ def info(model: Path = typer.Argument(..., help="Model file (YAML)."), json_out:
         # What simulate's coordinates="auto" runs on (assembly/coordinates.py).
         "coordinates": "planar (3 per part)" if system.topo.planar[0] is not None else f"absolute (not planar: {system.topo.planar[1]})",
     }
+    if getattr(mdl, "urdf", None) is not None:
+        data["mass_kg"] = round(sum(p.mass for p in mdl.parts), 6)
+        data["urdf: dropped or approximated"] = list(mdl.urdf.notes)
     if json_out:
         typer.echo(json.dumps(data))
         return
@@ -150,6 +165,40 @@ def run(
     out_dir.mkdir(parents=True, exist_ok=True)
     path = target(out_dir)
     console.print(f"[green]done:[/] {path}")
+
+
+@app.command()
+def view(
+    result: Path = typer.Argument(..., help="Result Parquet file (Result.to_parquet, proleg simulate, proleg run)."),
+    model: Path = typer.Option(None, "--model", help="Model file (.urdf or YAML) for the part shapes (URDF meshes)."),
+    fixed_base: bool = typer.Option(False, "--fixed-base", help="URDF: the root link was welded to ground."),
+    out: Path = typer.Option(None, "--out", help="HTML file to write (default: next to the Parquet file)."),
+    open_: bool = typer.Option(True, "--open/--no-open", help="Open the page in the default browser."),
+):
+    """Write a self-contained 3D animation (HTML, opens offline) of a result file, and open it."""
+    import pandas as pd
+
+    from proleg.report.animate import page, scene_from_frame
+
+    if not result.is_file():
+        console.print(f"[red]error:[/] result file {result} not found.")
+        raise typer.Exit(2)
+    df = pd.read_parquet(result)
+    if "time [s]" not in df.columns:
+        console.print(f"[red]error:[/] {result} has no 'time [s]' column; expected a file written by Result.to_parquet.")
+        raise typer.Exit(2)
+    mdl = _load(model, fixed_base)[0] if model is not None else None
+    scene = scene_from_frame(df, model=mdl)
+    if not scene["parts"]:
+        console.print(f"[red]error:[/] {result} has no part pose columns ('NAME.x [m]', 'NAME.e0', ...).")
+        raise typer.Exit(2)
+    out = out or result.with_suffix(".html")
+    out.write_text(page(scene, f"proleg: {result.name}"), encoding="utf-8")
+    console.print(f"wrote {out}")
+    if open_:
+        import webbrowser
+
+        webbrowser.open(out.resolve().as_uri())
 
 
 def _register_optional():

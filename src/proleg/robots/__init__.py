@@ -7,9 +7,12 @@
   Model II, its bounding runs and gait metrics; scenario ``proleg run scout2-bound``.
 - :func:`flegx`: the FLEGX flexible jumping leg (seed 002), rigid / PRBM / Craig-Bampton
   lower leg; :func:`flegx_jump` its countermovement jump with metrics.
+- :func:`hyq`: the whole HyQ quadruped from its URDF (example-robot-data), PD servos and foot
+  contacts (:mod:`proleg.robots.hyq`; its stand scenario is not registered yet: see run_stand).
 """
 
 from .hyq_leg import hyq_leg as hyq_leg
+from .hyq import hyq as hyq
 from .flegx import flegx as flegx
 from .flegx_jump import flegx_jump as flegx_jump
 from .scout2 import scout2 as scout2
