@@ -298,6 +298,12 @@ def run_bound(out_dir, *, t_end: float = 10.0, low_speed: bool = True, sensitivi
     rep.add_figure(_fig16(both), "Fig. 16 analogue: forward speed of both models next to the paper's, and the gait metrics of Model II relative to Model I.")
     for fig, cap in bound_figures(both):
         rep.add_figure(fig, cap)
+    from ..report.animate import animation_iframe
+
+    rep.add_heading("3D animation (Model II, the whole run)", level=3)
+    r2 = runs["Model II"].result
+    n = len(r2.t)
+    rep.add_html(animation_iframe(r2, height=420, max_frames=min(400, n)))
     rep.add_text(_findings(runs, extra, per_runs))
     if extra:
         rep.add_heading("Low speed (seed 003 §5.3)")
