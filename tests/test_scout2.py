@@ -117,8 +117,8 @@ def test_detect_period_on_synthetic_sequences():
 @pytest.mark.parametrize("factor", [0.8, 1.2])
 def test_initial_pitch_rate_robustness(factor):
     """Initial pitch rate ±20 %: the same period-one gait (speed within 1 %)."""
-    ref = scout2_bound("I", 8.0)
-    run = scout2_bound("I", 8.0, system=ref.system, pitch_rate=2.16 * factor)
+    ref = scout2_bound("I", 10.0)
+    run = scout2_bound("I", 10.0, system=ref.system, pitch_rate=2.16 * factor)
     assert run.metrics["period"] == 1
     np.testing.assert_allclose(run.metrics["forward_speed"], ref.metrics["forward_speed"], rtol=0.01)
 
