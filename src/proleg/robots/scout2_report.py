@@ -203,6 +203,7 @@ def _fig16(runs):
               color=["C0", "C1", "0.6", "0.6", "k"][: len(names) + 3] if len(names) == 2 else None)
     ax[0].axhspan(D.SPEED_MEASURED - D.SPEED_MEASURED_SD, D.SPEED_MEASURED + D.SPEED_MEASURED_SD, color="k", alpha=0.1)
     ax[0].set(ylabel="forward speed [m/s]", title="speed: proleg vs seed 003 §5.2")
+    ax[0].tick_params(axis="x", labelrotation=30, labelsize=8)
     keys = ["stride_frequency", "duty_factor_back", "duty_factor_front", "pitch_max", "pitch_min", "height_max", "height_min"]
     base = runs[names[0]].metrics
     x = np.arange(len(keys))
