@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ModelError
-from .solid import _signed_volumes
+from .solid import compact_tets
 
 
 def mesh_occ(build, h: float, *, name: str = "proleg_occ", h_min: float | None = None,
@@ -78,17 +78,7 @@ def mesh_occ(build, h: float, *, name: str = "proleg_occ", h_min: float | None =
             gmsh.finalize()
         else:
             gmsh.model.remove()
-    pts = np.asarray(coords, float).reshape(-1, 3)
-    lookup = np.zeros(int(tags.max()) + 1, dtype=np.int64)
-    lookup[tags] = np.arange(tags.size)
-    tets = lookup[tets_tags]
-    used = np.unique(tets)
-    renum = np.zeros(pts.shape[0], dtype=np.int64)
-    renum[used] = np.arange(used.size)
-    pts, tets = pts[used], renum[tets]
-    vol = _signed_volumes(pts, tets)
-    tets[vol < 0] = tets[vol < 0][:, [0, 2, 1, 3]]
-    return pts, tets
+    return compact_tets(tags, coords, tets_tags)
 
 
 def _axis(axis_point, axis):

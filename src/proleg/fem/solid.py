@@ -69,6 +69,12 @@ def mesh_box(size, h: float, origin=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.nda
             gmsh.finalize()
         else:
             gmsh.model.remove()
+    return compact_tets(tags, coords, tets_tags)
+
+
+def compact_tets(tags, coords, tets_tags):
+    """gmsh node tags, coordinates and tetrahedra (as node tags) → (points (n, 3), tets (m, 4)):
+    only the nodes the tetrahedra use, renumbered from 0, every tet positively oriented."""
     pts = np.asarray(coords, float).reshape(-1, 3)
     lookup = np.zeros(int(tags.max()) + 1, dtype=np.int64)
     lookup[tags] = np.arange(tags.size)
