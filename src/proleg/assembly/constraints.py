@@ -122,7 +122,13 @@ def joint_translation(rI, rJ, RJ):
     return jnp.sum(RJ[..., :, 2] * (rI - rJ), -1)
 
 
+def _wrap(a):
+    """An angle difference wrapped to (−π, π]."""
+    return jnp.arctan2(jnp.sin(a), jnp.cos(a))
+
+
 def _coordinate(sel_i, sel_j, rot, mr, R9):
+    """Joint coordinates of the selected (I, J) marker pairs: angle where ``rot``, else translation."""
     RI = (sel_i @ R9).reshape(-1, 3, 3)
     RJ = (sel_j @ R9).reshape(-1, 3, 3)
     return jnp.where(rot, joint_angle(RI, RJ), joint_translation(sel_i @ mr, sel_j @ mr, RJ))
@@ -157,19 +163,15 @@ def constraint_values(ct: ConstraintTopology, screw_lead, mr, mR, p, t, coupler=
         lead = screw_lead[ct.sc_param] / (2.0 * jnp.pi)
         parts.append(z - lead * th)
     if ct.drv_i.shape[0]:
-        RI = (ct.drv_i @ R9).reshape(-1, 3, 3)
-        RJ = (ct.drv_j @ R9).reshape(-1, 3, 3)
-        th = joint_angle(RI, RJ)
-        z = joint_translation(ct.drv_i @ mr, ct.drv_j @ mr, RJ)
         f = jnp.stack([jnp.asarray(fn(t), dtype=mr.dtype) for fn in ct.drv_fn])
+        d = _coordinate(ct.drv_i, ct.drv_j, ct.drv_rot, mr, R9) - f
         # Rotations: the wrapped difference, so a driven joint can turn through any number of turns.
-        dth = th - f
-        parts.append(jnp.where(ct.drv_rot, jnp.arctan2(jnp.sin(dth), jnp.cos(dth)), z - f))
+        parts.append(jnp.where(ct.drv_rot, _wrap(d), d))
     if ct.cp_i1 is not None and ct.cp_i1.shape[0]:
         ratio, offset = coupler[0][ct.cp_param], coupler[1][ct.cp_param]
         c1 = _coordinate(ct.cp_i1, ct.cp_j1, ct.cp_rot, mr, R9)
         c2 = _coordinate(ct.cp_i2, ct.cp_j2, ct.cp_rot, mr, R9)
         d = c1 - ratio * c2 - offset
-        parts.append(jnp.where(ct.cp_rot, jnp.arctan2(jnp.sin(d), jnp.cos(d)), d))
+        parts.append(jnp.where(ct.cp_rot, _wrap(d), d))
     parts.append(jnp.sum(p * p, -1) - 1.0)
     return jnp.concatenate(parts)

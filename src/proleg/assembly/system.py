@@ -557,20 +557,21 @@ def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
 
 
 def _check_controllers(system: System, ctrl):
-    """Trace every controller's update once (no compile): an unknown joint, contact or variable
-    in a law or guard is a ModelError here, naming the controller, not a tracer error later."""
-    from .extensions import ControllerGroup
-
+    """Trace every general controller's update once (``jax.eval_shape``, no compile): an unknown
+    joint, contact or variable in a law or guard is a ModelError here, naming the controller,
+    not a tracer error later."""
     z0 = jnp.concatenate([jnp.asarray(g.z0(system.params)) for g in system.topo.extensions if hasattr(g, "z0")])
     q0, v0 = system.params["q_init"], system.params["v_init"]
-    for e, (off, size) in zip(ctrl.elements, ctrl.slices):
+    for e, (off, _size) in zip(ctrl.elements, ctrl.slices):
         if e.kind == "pid":
             continue
-        one = ControllerGroup.__new__(ControllerGroup)
-        one.__dict__.update(ctrl.__dict__)
-        one.elements, one.slices = [e], [(off, size)]
+
+        def trace(s, q, v, z, e=e, off=off):
+            bk, mk = kinematics(s, q, v)
+            return e.update(0.0, StateView(s.topo, bk, mk, 0.0, z, s.params), z[off : off + e.z0.size])
+
         try:
-            jax.eval_shape(lambda s, q, v, z: one.sample(s.params, 0.0, q, v, z, s, first=True), system, q0, v0, z0)
+            jax.eval_shape(trace, system, q0, v0, z0)
         except ModelError as exc:
             raise ModelError(f"{type(e).__name__} '{e.name}': {exc}") from None
 

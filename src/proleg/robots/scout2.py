@@ -327,7 +327,6 @@ def bounding_controller(leg: str, p: Scout2Params, drive: DCMotorDrive, *, angle
     tau_max = float(drive.tau_max)  # α K_T V / R_a at V = 36 V (Eq. 4), virtual motor
     A = float(drive.A)
     tau_lim = float(drive.tau_current_limit)  # α K_T i_max (Eq. 6)
-    var = lambda s, k: s.variable(k)
 
     def phi(s):
         return s.joint_angle(angle_joint), s.joint_rate(angle_joint)
@@ -337,7 +336,7 @@ def bounding_controller(leg: str, p: Scout2Params, drive: DCMotorDrive, *, angle
 
     def flight(t, s, mem):
         a, ad = phi(s)
-        return {actuator: var(s, "flight_kp") * (var(s, f"touchdown_{leg}") - a) - var(s, "flight_kd") * ad}
+        return {actuator: s.variable("flight_kp") * (s.variable(f"touchdown_{leg}") - a) - s.variable("flight_kd") * ad}
 
     def retraction(t, s, mem):
         a, ad = phi(s)
@@ -347,11 +346,11 @@ def bounding_controller(leg: str, p: Scout2Params, drive: DCMotorDrive, *, angle
 
     def brake(t, s, mem):
         a, ad = phi(s)
-        return {actuator: var(s, "brake_kp") * (var(s, f"sweep_{leg}") - a) - var(s, "brake_kd") * ad}
+        return {actuator: s.variable("brake_kp") * (s.variable(f"sweep_{leg}") - a) - s.variable("brake_kd") * ad}
 
-    touchdown = lambda t, s, mem: compression(s) > var(s, "touchdown_compression")
-    liftoff = lambda t, s, mem: compression(s) < var(s, "liftoff_compression")
-    swept = lambda t, s, mem: phi(s)[0] <= var(s, f"sweep_{leg}")
+    touchdown = lambda t, s, mem: compression(s) > s.variable("touchdown_compression")
+    liftoff = lambda t, s, mem: compression(s) < s.variable("liftoff_compression")
+    swept = lambda t, s, mem: phi(s)[0] <= s.variable(f"sweep_{leg}")
     return StateMachine(
         f"{leg}_controller",
         states={"flight": flight, "retraction": retraction, "brake": brake},
