@@ -91,3 +91,30 @@ def test_killing_the_driver_loses_and_duplicates_nothing(tmp_path):
     assert len(ran) == 12 - len(before) and not set(ran) & set(before["key"])  # nothing recomputed
     kept = after.set_index("key").loc[before["key"], "batch"]
     assert list(kept) == list(before["batch"])  # rows written before the kill are untouched
+
+
+def test_processes_executor_equals_vmap_and_survives_a_killed_worker(tmp_path):
+    """The "processes" executor (spawned worker processes) gives the same rows as the in-process
+    vmap executor, and a worker process killed mid-study is replaced: the batches it had not
+    returned run again, every variant exactly once."""
+    import multiprocessing as mp
+
+    st = make_study(pendulum())
+    ref = st.run(design="lhs", n=8, seed=11, executor="vmap", workers=1, progress=False)
+    killed = []
+
+    def kill_a_worker(rows):
+        kids = [p for p in mp.active_children() if p.is_alive()]
+        if kids and not killed:
+            os.kill(kids[0].pid, signal.SIGKILL)  # a worker process of this study's pool
+            killed.append(kids[0].pid)
+
+    tab = st.run(design="lhs", n=8, seed=11, executor="processes", workers=2, batch_size=2, store=tmp_path / "p",
+                 progress=False, on_batch=kill_a_worker)
+    assert killed, "no worker process was alive when the first batch came back"
+    rows = pl.study.Store(tmp_path / "p").read()
+    assert len(rows) == 8 and rows["key"].is_unique and (rows["status"] == "success").all()
+    got = tab.set_index("key")["x_end"]
+    exp = ref.set_index("key")["x_end"]
+    assert set(got.index) == set(exp.index)
+    assert max(abs(got[k] - exp[k]) for k in exp.index) < 1e-10
