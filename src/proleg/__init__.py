@@ -90,7 +90,9 @@ __version__ = "0.1.0"
 from . import units as units
 from .errors import ConvergenceError as ConvergenceError
 from .errors import DataError as DataError
+from .errors import Interrupted as Interrupted
 from .errors import ModelError as ModelError
+from .errors import ProlegWarning as ProlegWarning
 from .errors import SolverError as SolverError
 from .model.forces import Bushing as Bushing
 from .model.forces import Force as Force

@@ -316,18 +316,34 @@ class Result:
         return pd.DataFrame(cols)
 
     def to_parquet(self, path):
-        """Write :meth:`to_frame` to Parquet (pyarrow); returns the path."""
-        from pathlib import Path
+        """Write :meth:`to_frame` to Parquet (pyarrow); returns the path.
 
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
+        Missing folders are created; the file is written under a temporary name and renamed into
+        place (atomic on POSIX), so a killed process never leaves half a file. An unwritable
+        target is a :class:`~proleg.errors.DataError` before the table is computed.
+        """
+        from .checks import writable
+
+        path = writable(path, "to_parquet")
         df = self.to_frame()
         df.attrs = {}
-        df.to_parquet(path, index=False)
+        _atomic_parquet(df, path)
         return path
 
+    def rows(self, start: int, stop: int | None = None) -> Result:
+        """The outputs ``start:stop`` as a Result of their own (same system, status and message)."""
+        sl = slice(start, stop)
+        r = Result(self.system, self.t[sl], self.q[sl], self.v[sl], self.w[sl], self.z[sl], status=self.status,
+                   message=self.message, integrator=self.integrator)
+        r.stats, r.coordinates = dict(self.stats), self.coordinates
+        return r
+
     def plot(self, *columns, ax=None):
-        """Quick look: plot columns of :meth:`to_frame` (substring match) against time."""
+        """Quick look: plot columns of :meth:`to_frame` (substring match) against time.
+
+        A name that matches no column is a :class:`~proleg.errors.ProlegWarning` naming the
+        closest columns (nothing is plotted for it).
+        """
         import matplotlib
 
         matplotlib.use("Agg", force=False)
@@ -336,11 +352,21 @@ class Result:
         df = self.to_frame()
         if ax is None:
             fig, ax = plt.subplots(figsize=(7, 4))
+        for s in columns:
+            if not any(s in c for c in df.columns):
+                import difflib
+
+                from .checks import warn
+
+                near = difflib.get_close_matches(s, list(df.columns), n=3, cutoff=0.3)
+                warn(f"Result.plot: '{s}' matches no output column of '{self.system.topo.name}'"
+                     + (f"; closest: {near}" if near else "") + ". result.to_frame().columns lists them.")
         sel = [c for c in df.columns if any(s in c for s in columns)] if columns else list(df.columns[1:4])
         for c in sel:
             ax.plot(df["time [s]"], df[c], label=c)
         ax.set_xlabel("time [s]")
-        ax.legend(fontsize=7)
+        if sel:
+            ax.legend(fontsize=7)
         ax.grid(alpha=0.3)
         return ax
 
@@ -424,3 +450,52 @@ _reactions_jit = jax.jit(_joint_reactions)
 _outputs_batch = jax.jit(jax.vmap(_one_outputs, in_axes=(None, 0, 0, 0, 0)))
 _energy_batch = jax.jit(jax.vmap(kinematic_energy_terms, in_axes=(None, 0, 0, 0, 0)))
 _residual_batch = jax.jit(jax.vmap(lambda s, q, t: jnp.max(jnp.abs(constraints(s, q, t))), in_axes=(None, 0, 0)))
+
+
+def _atomic_parquet(df, path) -> None:
+    """``df.to_parquet(path)`` through a temporary file in the same folder and ``os.replace``."""
+    import os
+    import uuid
+
+    tmp = path.with_name(f".tmp-{uuid.uuid4().hex[:8]}-{path.name}")
+    try:
+        df.to_parquet(tmp, index=False)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+class ChunkStore:
+    """Streams a run's outputs to a Parquet dataset as it goes (``simulate(..., store=path)``).
+
+    ``path`` becomes a folder holding ``part-00000.parquet``, ``part-00001.parquet``, ... — the
+    :meth:`Result.to_frame` rows of each finished chunk, each file written atomically, so that
+    ``pandas.read_parquet(path)`` reads every finished chunk even if the process was killed.
+    Part files of an earlier run in the same folder are removed when the run starts. Called as
+    ``on_chunk`` (it forwards to the user's own ``on_chunk``).
+    """
+
+    def __init__(self, path, on_chunk=None):
+        from pathlib import Path
+
+        from .checks import writable
+
+        self.path = writable(Path(path) / "part-00000.parquet", "simulate(store=...)").parent
+        for old in list(self.path.glob("part-*.parquet")) + list(self.path.glob(".tmp-*")):
+            old.unlink()
+        self.on_chunk, self.written, self.files = on_chunk, 0, 0
+
+    def write(self, result: Result) -> None:
+        """Write the rows of ``result`` not yet written (one new part file)."""
+        n = len(result.t)
+        if n <= self.written:
+            return
+        df = result.rows(self.written, n).to_frame()
+        df.attrs = {}
+        _atomic_parquet(df, self.path / f"part-{self.files:05d}.parquet")
+        self.written, self.files = n, self.files + 1
+
+    def __call__(self, result: Result) -> None:
+        self.write(result)
+        if self.on_chunk is not None:
+            self.on_chunk(result)
