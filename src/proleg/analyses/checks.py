@@ -26,6 +26,9 @@ from .placement import is_traced
 # times below dt_max (the "stiff bushings → rigid joint" tests run at ratios of ~1e-2).
 STIFF_PERIOD_RATIO = 1e-3
 STEPS_PER_PERIOD = 20
+# ... or below 1 µs whatever dt_max: a legged robot's stiffest real contact (steel on steel,
+# Hertz 4/3 E* √R ≈ 1e10 N/m^1.5 on a 1 kg part) has a period of ~1e-4 s.
+STIFF_PERIOD_MIN = 1e-6
 
 
 _PACKAGE = str(Path(__file__).resolve().parents[1])
@@ -279,9 +282,9 @@ def stiffness_warnings(system, dt_max: float, dt_min: float, who: str = "simulat
             warn(f"{who}: {what} on part '{part}' has a natural period of {T:.3g} s; resolving it needs steps near "
                  f"{h:.2g} s, below dt_min = {dt_min:g} s, so the run will stop (step too small). Check its units, or "
                  "lower dt_min.")
-        elif T < STIFF_PERIOD_RATIO * dt_max:
-            warn(f"{who}: {what} on part '{part}' has a natural period of {T:.3g} s, {dt_max / T:.3g}× below "
-                 f"dt_max = {dt_max:g} s: while it is excited the step collapses to ~{h:.2g} s. Check its units "
+        elif T < STIFF_PERIOD_RATIO * dt_max or T < STIFF_PERIOD_MIN:
+            warn(f"{who}: {what} on part '{part}' has a natural period of {T:.3g} s ({dt_max / T:.3g}× below "
+                 f"dt_max = {dt_max:g} s): while it is excited the step collapses to ~{h:.2g} s. Check its units "
                  "(N/m, N m/rad), or soften it.")
 
 
@@ -300,6 +303,9 @@ def writable(path, who: str = "to_parquet") -> Path:
     if path.exists() and not os.access(path, os.W_OK):
         raise DataError(f"{who}: '{path}' exists and is read-only. Choose another name or make it writable.")
     parent = path.parent
+    blocker = next((a for a in [parent, *parent.parents] if a.exists() and not a.is_dir()), None)
+    if blocker is not None:
+        raise DataError(f"{who}: cannot write to '{path}': '{blocker}' is a file, not a folder. Choose another path.")
     try:
         parent.mkdir(parents=True, exist_ok=True)
         probe = parent / f".proleg-probe-{uuid.uuid4().hex[:8]}"
