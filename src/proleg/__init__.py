@@ -119,6 +119,7 @@ from .analyses.simulate import simulate as simulate
 from .analyses.sweep import SweepResult as SweepResult
 from .analyses.sweep import sweep as sweep
 from .analyses.result import Result as Result
+from .analyses.result import read_store as read_store
 from .analyses.equilibrium import Equilibrium as Equilibrium
 from .analyses.equilibrium import solve_equilibrium as solve_equilibrium
 from .analyses.linearize import LinearModel as LinearModel

@@ -153,7 +153,7 @@ def check_simulate(system, args: dict, who: str = "simulate"):
     check_state(system, who, "q0", g("q0"), "q")
     check_state(system, who, "v0", g("v0"), "v")
     if g("store") is not None:
-        writable(g("store"), who)
+        writable(g("store"), f"{who}(store=...)", folder=True)
     span = _span(g("t_end"), g("dt_output"), g("t0", 0.0), g("output_times"))
     if span is None:
         return
@@ -291,13 +291,16 @@ def stiffness_warnings(system, dt_max: float, dt_min: float, who: str = "simulat
 # ---------------------------------------------------------------------------------------------
 # files
 # ---------------------------------------------------------------------------------------------
-def writable(path, who: str = "to_parquet") -> Path:
+def writable(path, who: str = "to_parquet", folder: bool = False) -> Path:
     """Create the parent folder of ``path`` and check that a file can be written there (before
-    any compute); DataError naming the path and the reason otherwise."""
+    any compute); DataError naming the path and the reason otherwise. ``folder=True``: ``path``
+    is a folder to hold files (``simulate``'s store); returns its first file's path."""
     try:
         path = Path(os.fspath(path))
     except TypeError:
         raise DataError(f"{who}: the output path must be a str or os.PathLike, got {path!r}.") from None
+    if folder:
+        path = path / "part-00000.parquet"
     if path.is_dir():
         raise DataError(f"{who}: '{path}' is a folder; give a file name such as '{path / 'result.parquet'}'.")
     if path.exists() and not os.access(path, os.W_OK):

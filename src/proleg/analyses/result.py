@@ -330,14 +330,6 @@ class Result:
         _atomic_parquet(df, path)
         return path
 
-    def rows(self, start: int, stop: int | None = None) -> Result:
-        """The outputs ``start:stop`` as a Result of their own (same system, status and message)."""
-        sl = slice(start, stop)
-        r = Result(self.system, self.t[sl], self.q[sl], self.v[sl], self.w[sl], self.z[sl], status=self.status,
-                   message=self.message, integrator=self.integrator)
-        r.stats, r.coordinates = dict(self.stats), self.coordinates
-        return r
-
     def plot(self, *columns, ax=None):
         """Quick look: plot columns of :meth:`to_frame` (substring match) against time.
 
@@ -466,21 +458,24 @@ def _atomic_parquet(df, path) -> None:
 
 
 class ChunkStore:
-    """Streams a run's outputs to a Parquet dataset as it goes (``simulate(..., store=path)``).
+    """Streams a run's state to a Parquet dataset as it goes (``simulate(..., store=path)``).
 
-    ``path`` becomes a folder holding ``part-00000.parquet``, ``part-00001.parquet``, ... — the
-    :meth:`Result.to_frame` rows of each finished chunk, each file written atomically, so that
-    ``pandas.read_parquet(path)`` reads every finished chunk even if the process was killed.
-    Part files of an earlier run in the same folder are removed when the run starts. Called as
-    ``on_chunk`` (it forwards to the user's own ``on_chunk``).
+    ``path`` becomes a folder holding ``part-00000.parquet``, ``part-00001.parquet``, ... — one
+    file per finished chunk, each written atomically (temporary name, then ``os.replace``), so
+    that ``pandas.read_parquet(path)`` reads every finished chunk even if the process was
+    killed. The rows are the full state, lossless and cheap to write (no output is computed per
+    chunk): ``time [s]``, per part ``<part>.x [m]`` ... ``<part>.e3`` and their rates
+    ``<part>.vx [m/s]`` ... ``<part>.de3 [1/s]`` (modal coordinates ``eta[k]``, ``deta[k]``),
+    ``energy.dissipated [J]``, ``energy.input [J]`` and controller states ``z[k]``.
+    :func:`read_store` turns it back into a :class:`Result` (every output accessor). Part files
+    of an earlier run in the same folder are removed when a run starts. Called as ``on_chunk``
+    (it forwards to the user's own ``on_chunk``).
     """
 
     def __init__(self, path, on_chunk=None):
-        from pathlib import Path
-
         from .checks import writable
 
-        self.path = writable(Path(path) / "part-00000.parquet", "simulate(store=...)").parent
+        self.path = writable(path, "simulate(store=...)", folder=True).parent
         for old in list(self.path.glob("part-*.parquet")) + list(self.path.glob(".tmp-*")):
             old.unlink()
         self.on_chunk, self.written, self.files = on_chunk, 0, 0
@@ -490,12 +485,57 @@ class ChunkStore:
         n = len(result.t)
         if n <= self.written:
             return
-        df = result.rows(self.written, n).to_frame()
-        df.attrs = {}
-        _atomic_parquet(df, self.path / f"part-{self.files:05d}.parquet")
+        _atomic_parquet(state_frame(result, self.written, n), self.path / f"part-{self.files:05d}.parquet")
         self.written, self.files = n, self.files + 1
 
     def __call__(self, result: Result) -> None:
         self.write(result)
         if self.on_chunk is not None:
             self.on_chunk(result)
+
+
+def _state_columns(topo) -> tuple[list[str], list[str]]:
+    qc, vc = [], []
+    for b in topo.body_names:
+        qc += [f"{b}.{a} [m]" for a in "xyz"] + [f"{b}.e{k}" for k in range(4)]
+        vc += [f"{b}.v{a} [m/s]" for a in "xyz"] + [f"{b}.de{k} [1/s]" for k in range(4)]
+    qc += [f"eta[{k}]" for k in range(topo.n_eta)]
+    vc += [f"deta[{k}]" for k in range(topo.n_eta)]
+    return qc, vc
+
+
+def state_frame(result: Result, start: int = 0, stop: int | None = None):
+    """The raw state of outputs ``start:stop`` as a DataFrame (the columns of :class:`ChunkStore`)."""
+    import pandas as pd
+
+    sl = slice(start, stop)
+    qc, vc = _state_columns(result.system.topo)
+    q, v = np.asarray(result.q[sl]), np.asarray(result.v[sl])
+    w, z = np.asarray(result.w[sl]), np.asarray(result.z[sl])
+    cols = {"time [s]": result.t[sl]}
+    cols.update({c: q[:, k] for k, c in enumerate(qc)})
+    cols.update({c: v[:, k] for k, c in enumerate(vc)})
+    cols["energy.dissipated [J]"], cols["energy.input [J]"] = w[:, 0], w[:, 1]
+    cols.update({f"z[{k}]": z[:, k] for k in range(z.shape[1])})
+    return pd.DataFrame(cols)
+
+
+def read_store(system: System, path) -> Result:
+    """The :class:`Result` of the chunks a ``simulate(..., store=path)`` run wrote (all of them,
+    or those finished before it was stopped). ``system`` is the one that was simulated."""
+    import pandas as pd
+
+    from ..errors import DataError
+
+    try:
+        df = pd.read_parquet(path)
+    except (OSError, ValueError) as exc:
+        raise DataError(f"read_store: cannot read '{path}' ({exc}).") from None
+    qc, vc = _state_columns(system.topo)
+    missing = [c for c in ["time [s]", *qc, *vc] if c not in df.columns]
+    if missing:
+        raise DataError(f"read_store: '{path}' was not written for model '{system.topo.name}' (no column {missing[0]!r}).")
+    zc = [c for c in df.columns if c.startswith("z[")]
+    return Result(system, df["time [s]"].to_numpy(), jnp.asarray(df[qc].to_numpy()), jnp.asarray(df[vc].to_numpy()),
+                  jnp.asarray(df[["energy.dissipated [J]", "energy.input [J]"]].to_numpy()),
+                  jnp.asarray(df[zc].to_numpy().reshape(len(df), len(zc))), message=f"read from {path}")

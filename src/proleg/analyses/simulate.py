@@ -157,8 +157,9 @@ def simulate(
     on_chunk : callable(Result) called after each chunk (e.g. to write partial results)
     store : path, optional — stream the outputs to a Parquet dataset (a folder of one file per
         chunk, each written atomically) as the run goes; ``pandas.read_parquet(store)`` reads what
-        was finished even if the process died (:class:`proleg.analyses.result.ChunkStore`).
-        Ctrl-C raises :class:`proleg.Interrupted` whose ``.result`` holds the finished chunks.
+        was finished even if the process died (:class:`proleg.analyses.result.ChunkStore`);
+        :func:`proleg.read_store` rebuilds the Result. Ctrl-C raises :class:`proleg.Interrupted`
+        whose ``.result`` holds the finished chunks.
     jacobian_reuse : keep the Newton matrix across steps (modified Newton, as in Adams): fewer
         matrix builds, linear convergence; see :class:`proleg.solvers.galpha.StepOptions`.
         Under ``jax.vmap`` the rebuild decisions are batch-wide (solvers/batching.py).
