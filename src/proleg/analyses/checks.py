@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataError, ModelError, ProlegWarning
+from ..model._validate import inertia_problem
 from .placement import is_traced
 
 # A stiffness warning is given when an element's period is below STIFF_PERIOD_RATIO · dt_max:
@@ -343,13 +344,7 @@ _RULES = [
 def _violation(rule: str, x: np.ndarray) -> str | None:
     if rule == "inertia":
         J = x.reshape(-1, 3, 3) if x.shape[-2:] == (3, 3) else np.stack([np.diag(r) for r in x.reshape(-1, 3)])
-        for Jk in J:
-            w = np.linalg.eigvalsh(0.5 * (Jk + Jk.T))
-            if w.min() <= 0:
-                return f"is not positive definite (principal moments {np.round(w, 12).tolist()})"
-            if w[0] + w[1] < w[2] * (1 - 1e-9):
-                return f"violates the triangle inequality (principal moments {np.round(w, 12).tolist()})"
-        return None
+        return next((p for p in map(inertia_problem, J) if p is not None), None)
     d = np.diagonal(x, axis1=-2, axis2=-1) if x.ndim >= 2 and x.shape[-1] == x.shape[-2] == 6 else x
     bad = (d <= 0) if rule == "positive" else (d < 0)
     if np.any(bad):

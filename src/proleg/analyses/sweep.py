@@ -68,6 +68,7 @@ class SweepResult:
 
     ``values``: {parameter name: array (n_variants, ...)}; ``t`` (n_out,); ``q``, ``v``, ``w``,
     ``z``: (n_variants, n_out, ...); ``status``: a :class:`~proleg.errors.Status` per variant;
+    ``variants``: each row's index in the sweep (all of them, unless it was interrupted);
     ``fail_time`` [s] (NaN for the variants that did not fail); ``stats``: {"steps", "rejected",
     "newton_iterations", "jacobians"} arrays (n_variants,). ``wall_time`` [s] of the batch run
     and ``compile_time`` [s] of its compilation.
@@ -170,6 +171,11 @@ def sweep(
     ``status`` with the time it stopped; the others are unaffected. ``apply(system, values)``
     (traceable; default ``System.with_params``) maps a variant's values to its System, for
     parameters that are functions of the swept ones (proleg.study uses it).
+
+    Checks first (analyses/checks.py): the simulate arguments, and each variant's values
+    against the model's physical rules (a negative mass in variant 3 is a ModelError naming
+    variant 3). Ctrl-C raises :class:`proleg.Interrupted` whose ``.result`` is a SweepResult of
+    the finished batches (``.result.variants``: their indices in the sweep).
     """
     import time
     from concurrent.futures import ThreadPoolExecutor
