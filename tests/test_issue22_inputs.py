@@ -98,6 +98,15 @@ def violated():
     return pl.assemble(m)
 
 
+def contradictory():
+    """A rod 1 m long between two ground pins 3 m apart: the violated equation is redundant."""
+    m = pl.Model("stretched")
+    rod = m.add_part("rod", 1.0, (1e-3, 1e-2, 1e-2), (0.5, 0, 0))
+    m.add_joint(pl.Spherical("left", m.add_marker(rod, "a", (0, 0, 0)), m.add_marker(m.ground, "ga", (0, 0, 0))))
+    m.add_joint(pl.Spherical("right", m.add_marker(rod, "b", (1, 0, 0)), m.add_marker(m.ground, "gb", (3, 0, 0))))
+    return pl.assemble(m)
+
+
 def slider():
     """A block on a vertical prismatic joint with nothing to hold it: no static equilibrium."""
     m = pl.Model("slider")
@@ -182,6 +191,7 @@ CASES = [
     ("pid_negative_kd", lambda s, r, p: pl.PID("servo", None, kp=10.0, kd=-1.0), W, "'servo'.*kd = -1"),
     ("locked_mechanism", lambda s, r, p: locked(), W, "'pend' has 0 degrees of freedom"),
     ("part_attached_to_nothing", lambda s, r, p: loose(), W, r"\['loose'\].*attached to nothing"),
+    ("joints_contradict", lambda s, r, p: contradictory(), W, r"'right' \(dx\) by 2 .*redundant.*never enforced"),
     ("pose_violates_joint", lambda s, r, p: violated(), W, "'hinge'.*0.05"),
     ("contact_stiffness_1e20", lambda s, r, p: pl.simulate(pl.assemble(ball(1e20)), 0.01), W, "'foot' stiffness 1e\\+20"),
     ("dt_output_above_t_end", lambda s, r, p: pl.simulate(s, 0.01, 0.1), W, "dt_output = 0.1 s is longer"),

@@ -535,7 +535,7 @@ def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
         raise ModelError(f"Model '{model.name}': the constraint Jacobian is not finite at the modelled pose.")
     ordered = [r for k in ROW_KINDS for r in rows if r["kind"] == k]
     keep, drop = find_redundant_rows(Phi_q, nb, tol=redundancy_tol)
-    dof = _dof_at_assembly(model, topo, owners, Phi, keep)
+    dof = _dof_at_assembly(model, topo, owners, Phi, keep, drop)
     dropped = [(owners[ordered[i]["owner"]].name, ordered[i]["label"]) for i in drop]
     if dropped:
         warnings.warn(
@@ -678,7 +678,7 @@ def unconnected_parts(topo: Topology) -> list[str]:
     return [n for n in topo.body_names if n not in connected]
 
 
-def _dof_at_assembly(model: Model, topo: Topology, owners, Phi, keep) -> dict:
+def _dof_at_assembly(model: Model, topo: Topology, owners, Phi, keep, drop=()) -> dict:
     """DOF counts at the modelled pose, with a warning for a locked model, a part attached to
     nothing (when others are attached) and joints the modelled pose violates."""
     nb = topo.nbody
@@ -702,7 +702,16 @@ def _dof_at_assembly(model: Model, topo: Topology, owners, Phi, keep) -> dict:
             "will fall freely. Connect them, or remove them.",
             ProlegWarning, stacklevel=3,
         )
-    if res > INITIAL_RESIDUAL_WARN:
+    bad_drop = [int(i) for i in drop if abs(Phi[i]) > INITIAL_RESIDUAL_WARN]
+    if bad_drop:
+        i = max(bad_drop, key=lambda k: abs(Phi[k]))
+        warnings.warn(
+            f"Model '{model.name}': the modelled pose violates '{topo.ct.labels[i][0]}' ({topo.ct.labels[i][1]}) by "
+            f"{abs(Phi[i]):.3g} (m or rad), and that equation is redundant, so it is removed and never enforced: the "
+            "joints contradict each other. Fix the joint locations (a simulation would run with it violated).",
+            ProlegWarning, stacklevel=3,
+        )
+    elif res > INITIAL_RESIDUAL_WARN:
         warnings.warn(
             f"Model '{model.name}': the modelled pose violates '{elem}' ({lab}) by {res:.3g} (m or rad); the "
             "initial-conditions analysis will move parts to assemble it. Check the joint location and part poses.",
