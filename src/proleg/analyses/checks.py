@@ -154,6 +154,9 @@ def check_simulate(system, args: dict, who: str = "simulate"):
     check_state(system, who, "q0", g("q0"), "q")
     check_state(system, who, "v0", g("v0"), "v")
     if g("store") is not None:
+        if _any_traced_params(system) or is_traced(g("q0")) or is_traced(g("v0")):
+            raise ModelError(f"{who}: store= streams chunks from Python and is not available under jax.vmap/jit/grad; "
+                             "use proleg.sweep or proleg.study (its store) for batches.")
         writable(g("store"), f"{who}(store=...)", folder=True)
     span = _span(g("t_end"), g("dt_output"), g("t0", 0.0), g("output_times"))
     if span is None:

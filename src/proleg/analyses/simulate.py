@@ -309,7 +309,7 @@ def simulate(
                 + " from the modelled pose (result.initial_changes lists all changes).",
                 stacklevel=2,
             )
-    if isinstance(on_chunk, ChunkStore):
+    if isinstance(on_chunk, ChunkStore) and not traced:
         on_chunk.write(result)  # the last chunk, or the one that failed
     if status == Status.INTERRUPTED:
         raise Interrupted(f"simulate of '{system.topo.name}': {msg}", result)
