@@ -97,3 +97,27 @@ def test_sigint_keeps_what_was_computed(tmp_path):
     np.testing.assert_allclose(r, 0.5, atol=1e-9)  # the rod's COM stays on its circle
     energy = pendulum_energy(stored)
     assert np.ptp(energy) < 1e-5 * 9.81 * 0.5  # of the swing's energy scale m g L (no damping)
+
+
+@pytest.mark.slow
+def test_sweep_interrupt_keeps_finished_batches(monkeypatch):
+    """Ctrl-C during the second of three one-variant batches: Interrupted carries a SweepResult
+    of the first batch only (variant 0, on the full output grid, run to the end)."""
+    import jax
+
+    system = pl.assemble(pendulum())  # noqa: F821 (from PENDULUM)
+    real, calls = jax.block_until_ready, []
+
+    def stop_on_second(x):
+        calls.append(1)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(x)
+
+    monkeypatch.setattr(jax, "block_until_ready", stop_on_second)
+    with pytest.raises(pl.Interrupted, match="after 1 of 3 batches") as exc:
+        pl.sweep(system, {"rod.mass": [1.0, 2.0, 3.0]}, 0.05, 0.01, batch_size=1, workers=1)
+    res = exc.value.result
+    assert len(res) == 1 and list(res.variants) == [0] and res.ok.all()
+    np.testing.assert_allclose(res.values["rod.mass"], [1.0])
+    np.testing.assert_allclose(res.t, 0.01 * np.arange(6), atol=1e-12)
