@@ -91,7 +91,7 @@ def info(
         "dof_rank": dof["rank"],
         "redundant": [f"{j}: {lab}" for j, lab in dof["redundant"]],
         "initial_residual": (f"{dof['initial_residual'][0]:.3g} ({dof['initial_residual'][1]}: {dof['initial_residual'][2]})"
-                             if dof["initial_residual"][1] is not None else "0"),
+                             if dof["initial_residual"][0] > 1e-12 else "0"),
         "unconnected_parts": unconnected_parts(system.topo),
         # What simulate's coordinates="auto" runs on (assembly/coordinates.py).
         "coordinates": "planar (3 per part)" if system.topo.planar[0] is not None else f"absolute (not planar: {system.topo.planar[1]})",
