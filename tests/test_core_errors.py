@@ -160,6 +160,7 @@ def test_equilibrium_of_unconnected_part(model):
     body = model.part("body")
     model.add_joint(pl.Revolute("pin", body, model.ground, at=(0, 0, 0.1), axis=(0, 1, 0)))
     model.add_part("loose", mass=1.0, inertia=(1, 1, 1), position=(2, 0, 0))
-    system = pl.assemble(model)
+    with pytest.warns(pl.ProlegWarning, match=r"\['loose'\] are attached to nothing"):
+        system = pl.assemble(model)
     with pytest.raises(pl.ModelError, match="'loose'"):
         pl.solve_equilibrium(system)

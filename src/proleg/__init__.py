@@ -90,7 +90,9 @@ __version__ = "0.1.0"
 from . import units as units
 from .errors import ConvergenceError as ConvergenceError
 from .errors import DataError as DataError
+from .errors import Interrupted as Interrupted
 from .errors import ModelError as ModelError
+from .errors import ProlegWarning as ProlegWarning
 from .errors import SolverError as SolverError
 from .model.forces import Bushing as Bushing
 from .model.forces import Force as Force
@@ -117,6 +119,7 @@ from .analyses.simulate import simulate as simulate
 from .analyses.sweep import SweepResult as SweepResult
 from .analyses.sweep import sweep as sweep
 from .analyses.result import Result as Result
+from .analyses.result import read_store as read_store
 from .analyses.equilibrium import Equilibrium as Equilibrium
 from .analyses.equilibrium import solve_equilibrium as solve_equilibrium
 from .analyses.linearize import LinearModel as LinearModel

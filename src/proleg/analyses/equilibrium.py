@@ -8,8 +8,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..assembly.system import System, constraints, generalized_forces
+from ..assembly.system import System, constraints, generalized_forces, unconnected_parts
 from ..errors import ConvergenceError, ModelError
+from .checks import check_equilibrium
 from .placement import placed
 
 
@@ -76,23 +77,10 @@ def _res(system, x, t):
 
 def check_connected(system: System):
     """ModelError naming parts that neither a joint nor a force element connects to anything."""
-    topo = system.topo
-    connected = set()
-    for j in topo.joints:
-        connected.add(j.marker_i.part.name)
-        connected.add(j.marker_j.part.name)
-    for g in topo.groups + topo.extensions:
-        for e in g.elements:
-            for attr in ("i", "j", "marker"):
-                m = getattr(e, attr, None)
-                if m is not None and hasattr(m, "part"):
-                    connected.add(m.part.name)
-            if hasattr(e, "part_names"):
-                connected.update(e.part_names())
-    free = [n for n in topo.body_names if n not in connected]
+    free = unconnected_parts(system.topo)
     if free:
         raise ModelError(
-            f"Static equilibrium of '{topo.name}': part(s) {free} are connected to nothing (no joint, force "
+            f"Static equilibrium of '{system.topo.name}': part(s) {free} are connected to nothing (no joint, force "
             "element or contact), so they have no static equilibrium. Connect them or remove them."
         )
 
@@ -130,6 +118,7 @@ def solve_equilibrium(
     """
     from .simulate import consistent_state, initial_z
 
+    check_equilibrium(system, q_guess, t, tol, max_iter)
     check_connected(system)
     q0, _, _, lam0, z0 = consistent_state(system, q_guess, None, t, initial_z(system))
     nq = system.topo.nq
@@ -148,6 +137,8 @@ def solve_equilibrium(
     for it in range(it0 + 1, it0 + max_iter + 1):
         if fr < tol * scale and cr < tol and it > it0 + 1:
             break
+        if not (np.all(np.isfinite(np.asarray(J))) and np.all(np.isfinite(np.asarray(r)))):
+            _no_equilibrium(system, x[:nq], t, "the equations became NaN or inf", it)
         cond = np.linalg.cond(np.asarray(J))
         if np.isfinite(cond) and cond < 1e12:
             dx = jnp.linalg.solve(J, -r)
@@ -169,14 +160,10 @@ def solve_equilibrium(
         if float(jnp.max(jnp.abs(alpha * dx[:nq]))) < 1e-13 and fr < 1e-6 * scale and cr < tol:
             break
     else:
-        cond = np.linalg.cond(np.asarray(J))
-        if not np.isfinite(cond) or cond > 1e15:
-            _explain_singular(system, np.asarray(J), nq)
-        raise ConvergenceError(
-            f"Static equilibrium of '{system.topo.name}' did not converge in {max_iter} iterations "
-            f"(force residual {fr:.3g}, constraint residual {cr:.3g}). Start closer (q_guess) or run a "
-            "damped dynamic settle (simulate) first."
-        )
+        Jn = np.asarray(J)
+        singular = not np.all(np.isfinite(Jn)) or not np.linalg.cond(Jn) < 1e15
+        _no_equilibrium(system, x[:nq], t, "Newton did not converge"
+                        + ("; its Jacobian is singular: a motion that nothing resists" if singular else ""), it)
     cond = np.linalg.cond(np.asarray(J))
     if not np.isfinite(cond) or cond > 1e15:
         _explain_singular(system, np.asarray(J), nq)
@@ -208,6 +195,8 @@ def _saddle_free(system, q, t, ftol, max_iter, max_step=0.2):
     it = 0
     for it in range(1, max_iter + 1):
         phi, Pq, Q, lam, K = (np.asarray(a) for a in _tangent_pieces(system, q, t))
+        if not all(np.all(np.isfinite(a)) for a in (Pq, Q, K)):
+            _no_equilibrium(system, q, t, "the equations became NaN or inf while walking downhill", it)
         _, s, Vt = np.linalg.svd(Pq)
         rank = int(np.sum(s > 1e-10 * s[0]))
         N = Vt[rank:].T
@@ -219,8 +208,12 @@ def _saddle_free(system, q, t, ftol, max_iter, max_step=0.2):
         w, V = np.linalg.eigh(Kr)
         wmax = max(np.max(np.abs(w)), 1e-300)
         w_mod = np.maximum(np.abs(w), 1e-8 * wmax)
-        y = -V @ ((V.T @ g) / w_mod)
+        with np.errstate(over="ignore", invalid="ignore"):
+            y = -V @ ((V.T @ g) / w_mod)
         nrm = np.linalg.norm(y)
+        if not np.isfinite(nrm):  # no stiffness at all (free fall): step downhill along the load
+            y, nrm = -g, max(np.linalg.norm(g), 1e-300)
+            y, nrm = y * (max_step / nrm), max_step
         if nrm > max_step:
             y *= max_step / nrm
         q = _project(system, q + jnp.asarray(N @ y), t, nb)
@@ -237,4 +230,31 @@ def _explain_singular(system, J, nq):
     raise ModelError(
         f"Model '{system.topo.name}' is not statically determinate: free rigid motion involving part(s) "
         f"{moving} (no stiffness resists it). Add a joint, spring or contact that holds it, or simulate instead."
+    )
+
+
+def _no_equilibrium(system, q, t, why: str, iterations: int):
+    """ConvergenceError naming the largest residual: the unbalanced force on a part (with the
+    elements attached to it) or the violated constraint equation, at the last finite iterate."""
+    topo = system.topo
+    q = jnp.asarray(q)
+    where, value = "unknown", float("nan")
+    if bool(jnp.all(jnp.isfinite(q))):
+        phi, Pq, Q, lam, _ = (np.asarray(a) for a in _tangent_pieces(system, q, t))
+        f = Pq.T @ lam - Q
+        nb = topo.nbody
+        fb = np.abs(f[: 7 * nb].reshape(nb, 7)[:, :3])
+        if np.all(np.isfinite(f)) and fb.size and fb.max() >= np.abs(phi).max(initial=0.0):
+            b, k = np.unravel_index(int(np.argmax(fb)), fb.shape)
+            value = float(fb[b, k])
+            where = f"unbalanced force {value:.3g} N along {'xyz'[k]} on part '{topo.body_names[b]}'"
+        elif np.all(np.isfinite(phi)) and phi.size:
+            row = int(np.argmax(np.abs(phi)))
+            value = float(abs(phi[row]))
+            elem, lab = topo.ct.labels[row] if row < len(topo.ct.labels) else ("Euler parameters", "norm")
+            where = f"constraint residual {value:.3g} in '{elem}' ({lab})"
+    raise ConvergenceError(
+        f"Static equilibrium of '{topo.name}': no equilibrium found ({why}, after {iterations} iterations); "
+        f"worst residual: {where}. A part that can fall or slide without limit has none: add a spring, stop or "
+        "contact, start closer (q_guess), or run a damped dynamic settle (simulate) instead."
     )

@@ -11,6 +11,7 @@ import scipy.linalg
 
 from ..assembly.system import System, constraints, generalized_forces
 from ..solvers.initial import mass_matrix
+from .checks import check_linearize
 from .placement import placed
 
 
@@ -112,6 +113,7 @@ def linearize(system: System, state=None, t: float = 0.0) -> LinearModel:
     """
     from .equilibrium import Equilibrium, solve_equilibrium
 
+    check_linearize(system, state, t)
     if state is None:
         state = solve_equilibrium(system, t=t)
     if isinstance(state, Equilibrium):

@@ -316,18 +316,26 @@ class Result:
         return pd.DataFrame(cols)
 
     def to_parquet(self, path):
-        """Write :meth:`to_frame` to Parquet (pyarrow); returns the path."""
-        from pathlib import Path
+        """Write :meth:`to_frame` to Parquet (pyarrow); returns the path.
 
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
+        Missing folders are created; the file is written under a temporary name and renamed into
+        place (atomic on POSIX), so a killed process never leaves half a file. An unwritable
+        target is a :class:`~proleg.errors.DataError` before the table is computed.
+        """
+        from .checks import writable
+
+        path = writable(path, "to_parquet")
         df = self.to_frame()
         df.attrs = {}
-        df.to_parquet(path, index=False)
+        _atomic_parquet(df, path)
         return path
 
     def plot(self, *columns, ax=None):
-        """Quick look: plot columns of :meth:`to_frame` (substring match) against time."""
+        """Quick look: plot columns of :meth:`to_frame` (substring match) against time.
+
+        A name that matches no column is a :class:`~proleg.errors.ProlegWarning` naming the
+        closest columns (nothing is plotted for it).
+        """
         import matplotlib
 
         matplotlib.use("Agg", force=False)
@@ -336,11 +344,21 @@ class Result:
         df = self.to_frame()
         if ax is None:
             fig, ax = plt.subplots(figsize=(7, 4))
+        for s in columns:
+            if not any(s in c for c in df.columns):
+                import difflib
+
+                from .checks import warn
+
+                near = difflib.get_close_matches(s, list(df.columns), n=3, cutoff=0.3)
+                warn(f"Result.plot: '{s}' matches no output column of '{self.system.topo.name}'"
+                     + (f"; closest: {near}" if near else "") + ". result.to_frame().columns lists them.")
         sel = [c for c in df.columns if any(s in c for s in columns)] if columns else list(df.columns[1:4])
         for c in sel:
             ax.plot(df["time [s]"], df[c], label=c)
         ax.set_xlabel("time [s]")
-        ax.legend(fontsize=7)
+        if sel:
+            ax.legend(fontsize=7)
         ax.grid(alpha=0.3)
         return ax
 
@@ -424,3 +442,100 @@ _reactions_jit = jax.jit(_joint_reactions)
 _outputs_batch = jax.jit(jax.vmap(_one_outputs, in_axes=(None, 0, 0, 0, 0)))
 _energy_batch = jax.jit(jax.vmap(kinematic_energy_terms, in_axes=(None, 0, 0, 0, 0)))
 _residual_batch = jax.jit(jax.vmap(lambda s, q, t: jnp.max(jnp.abs(constraints(s, q, t))), in_axes=(None, 0, 0)))
+
+
+def _atomic_parquet(df, path) -> None:
+    """``df.to_parquet(path)`` through a temporary file in the same folder and ``os.replace``."""
+    import os
+    import uuid
+
+    tmp = path.with_name(f".tmp-{uuid.uuid4().hex[:8]}-{path.name}")
+    try:
+        df.to_parquet(tmp, index=False)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+class ChunkStore:
+    """Streams a run's state to a Parquet dataset as it goes (``simulate(..., store=path)``).
+
+    ``path`` becomes a folder holding ``part-00000.parquet``, ``part-00001.parquet``, ... — one
+    file per finished chunk, each written atomically (temporary name, then ``os.replace``), so
+    that ``pandas.read_parquet(path)`` reads every finished chunk even if the process was
+    killed. The rows are the full state, lossless and cheap to write (no output is computed per
+    chunk): ``time [s]``, per part ``<part>.x [m]`` ... ``<part>.e3`` and their rates
+    ``<part>.vx [m/s]`` ... ``<part>.de3 [1/s]`` (modal coordinates ``eta[k]``, ``deta[k]``),
+    ``energy.dissipated [J]``, ``energy.input [J]`` and controller states ``z[k]``.
+    :func:`read_store` turns it back into a :class:`Result` (every output accessor). Part files
+    of an earlier run in the same folder are removed when a run starts. Called as ``on_chunk``
+    (it forwards to the user's own ``on_chunk``).
+    """
+
+    def __init__(self, path, on_chunk=None):
+        from .checks import writable
+
+        self.path = writable(path, "simulate(store=...)", folder=True).parent
+        for old in list(self.path.glob("part-*.parquet")) + list(self.path.glob(".tmp-*")):
+            old.unlink()
+        self.on_chunk, self.written, self.files = on_chunk, 0, 0
+
+    def write(self, result: Result) -> None:
+        """Write the rows of ``result`` not yet written (one new part file)."""
+        n = len(result.t)
+        if n <= self.written:
+            return
+        _atomic_parquet(state_frame(result, self.written, n), self.path / f"part-{self.files:05d}.parquet")
+        self.written, self.files = n, self.files + 1
+
+    def __call__(self, result: Result) -> None:
+        self.write(result)
+        if self.on_chunk is not None:
+            self.on_chunk(result)
+
+
+def _state_columns(topo) -> tuple[list[str], list[str]]:
+    qc, vc = [], []
+    for b in topo.body_names:
+        qc += [f"{b}.{a} [m]" for a in "xyz"] + [f"{b}.e{k}" for k in range(4)]
+        vc += [f"{b}.v{a} [m/s]" for a in "xyz"] + [f"{b}.de{k} [1/s]" for k in range(4)]
+    qc += [f"eta[{k}]" for k in range(topo.n_eta)]
+    vc += [f"deta[{k}]" for k in range(topo.n_eta)]
+    return qc, vc
+
+
+def state_frame(result: Result, start: int = 0, stop: int | None = None):
+    """The raw state of outputs ``start:stop`` as a DataFrame (the columns of :class:`ChunkStore`)."""
+    import pandas as pd
+
+    sl = slice(start, stop)
+    qc, vc = _state_columns(result.system.topo)
+    q, v = np.asarray(result.q[sl]), np.asarray(result.v[sl])
+    w, z = np.asarray(result.w[sl]), np.asarray(result.z[sl])
+    cols = {"time [s]": result.t[sl]}
+    cols.update({c: q[:, k] for k, c in enumerate(qc)})
+    cols.update({c: v[:, k] for k, c in enumerate(vc)})
+    cols["energy.dissipated [J]"], cols["energy.input [J]"] = w[:, 0], w[:, 1]
+    cols.update({f"z[{k}]": z[:, k] for k in range(z.shape[1])})
+    return pd.DataFrame(cols)
+
+
+def read_store(system: System, path) -> Result:
+    """The :class:`Result` of the chunks a ``simulate(..., store=path)`` run wrote (all of them,
+    or those finished before it was stopped). ``system`` is the one that was simulated."""
+    import pandas as pd
+
+    from ..errors import DataError
+
+    try:
+        df = pd.read_parquet(path)
+    except (OSError, ValueError) as exc:
+        raise DataError(f"read_store: cannot read '{path}' ({exc}).") from None
+    qc, vc = _state_columns(system.topo)
+    missing = [c for c in ["time [s]", *qc, *vc] if c not in df.columns]
+    if missing:
+        raise DataError(f"read_store: '{path}' was not written for model '{system.topo.name}' (no column {missing[0]!r}).")
+    zc = [c for c in df.columns if c.startswith("z[")]
+    return Result(system, df["time [s]"].to_numpy(), jnp.asarray(df[qc].to_numpy()), jnp.asarray(df[vc].to_numpy()),
+                  jnp.asarray(df[["energy.dissipated [J]", "energy.input [J]"]].to_numpy()),
+                  jnp.asarray(df[zc].to_numpy().reshape(len(df), len(zc))), message=f"read from {path}")

@@ -13,12 +13,13 @@ import numpy as np
 
 from ..assembly.coordinates import coordinate_set
 from ..assembly.system import System, constraints, generalized_forces, power_terms
-from ..errors import ConvergenceError, SolverError, Status
+from ..errors import ConvergenceError, Interrupted, SolverError, Status
 from ..solvers.driver import DriverOptions, advance, sample_controllers
 from ..solvers.galpha import GeneralizedAlpha, StepOptions, StepState
 from ..solvers.initial import _normalize_p, kkt_accelerations, mass_matrix
+from .checks import check_simulate
 from .placement import _any_traced, is_traced, placed
-from .result import Result
+from .result import ChunkStore, Result
 
 
 def _ic_positions(system: System, q_user, t0, n_iter: int):
@@ -140,6 +141,7 @@ def simulate(
     on_chunk=None,
     free_running: bool = False,
     lu_per_lane: bool = False,
+    store=None,
 ) -> Result:
     """Integrate ``system`` from ``t0`` to ``t_end``; outputs every ``dt_output`` (or at ``output_times``).
 
@@ -153,6 +155,11 @@ def simulate(
     throw : raise :class:`SolverError` on failure (its ``.result`` holds what was computed);
         otherwise return a Result whose ``status``/``message`` say what happened
     on_chunk : callable(Result) called after each chunk (e.g. to write partial results)
+    store : path, optional — stream the outputs to a Parquet dataset (a folder of one file per
+        chunk, each written atomically) as the run goes; ``pandas.read_parquet(store)`` reads what
+        was finished even if the process died (:class:`proleg.analyses.result.ChunkStore`);
+        :func:`proleg.read_store` rebuilds the Result. Ctrl-C raises :class:`proleg.Interrupted`
+        whose ``.result`` holds the finished chunks.
     jacobian_reuse : keep the Newton matrix across steps (modified Newton, as in Adams): fewer
         matrix builds, linear convergence; see :class:`proleg.solvers.galpha.StepOptions`.
         Under ``jax.vmap`` the rebuild decisions are batch-wide (solvers/batching.py).
@@ -175,6 +182,9 @@ def simulate(
 
     Works under ``jax.vmap`` and ``jax.jacfwd`` (the Python loop over chunks is static).
     """
+    check_simulate(system, locals())
+    if store is not None:
+        on_chunk = ChunkStore(store, on_chunk)
     integrator = integrator or GeneralizedAlpha()
     if output_times is None:
         if dt_output is None:
@@ -267,11 +277,21 @@ def simulate(
             if on_chunk is not None:
                 partial_result = _build(system, rec_t, rec, stats, status, "running", integrator)
                 on_chunk(partial_result)
+    except KeyboardInterrupt:
+        if traced:
+            raise
+        n = min(len(rec_t), *(len(r) for r in rec.values()))  # drop a chunk recorded in part
+        del rec_t[n:]
+        for r in rec.values():
+            del r[n:]
+        status, fail_t = Status.INTERRUPTED, float(rec_t[-1][-1])
     finally:
         if bar is not None:
             bar.stop()
     msg = "success"
-    if status != Status.SUCCESS:
+    if status == Status.INTERRUPTED:
+        msg = f"{status.describe()} at t = {fail_t:.6g} s; the result holds the outputs up to there."
+    elif status != Status.SUCCESS:
         msg = _failure_message(system, status, fail_t, worst)
     result = _build(system, rec_t, rec, stats, status, msg, integrator)
     result.coordinates = dyn.kind
@@ -289,6 +309,10 @@ def simulate(
                 + " from the modelled pose (result.initial_changes lists all changes).",
                 stacklevel=2,
             )
+    if isinstance(on_chunk, ChunkStore) and not traced:
+        on_chunk.write(result)  # the last chunk, or the one that failed
+    if status == Status.INTERRUPTED:
+        raise Interrupted(f"simulate of '{system.topo.name}': {msg}", result)
     if status != Status.SUCCESS and throw:
         raise SolverError(msg, result)
     return result

@@ -28,6 +28,7 @@ import numpy as np
 
 from ..assembly.system import System
 from ..errors import ModelError, Status
+from .checks import check_simulate, check_sweep_values
 from .result import Result
 from .simulate import simulate
 
@@ -67,6 +68,7 @@ class SweepResult:
 
     ``values``: {parameter name: array (n_variants, ...)}; ``t`` (n_out,); ``q``, ``v``, ``w``,
     ``z``: (n_variants, n_out, ...); ``status``: a :class:`~proleg.errors.Status` per variant;
+    ``variants``: each row's index in the sweep (all of them, unless it was interrupted);
     ``fail_time`` [s] (NaN for the variants that did not fail); ``stats``: {"steps", "rejected",
     "newton_iterations", "jacobians"} arrays (n_variants,). ``wall_time`` [s] of the batch run
     and ``compile_time`` [s] of its compilation.
@@ -148,6 +150,8 @@ def _values(system: System, params: dict, apply=None) -> tuple[dict, int]:
         out[name] = arr
     # Every name and per-variant shape is checked by with_params itself (it names the element).
     (apply or System.with_params)(system, {k: v[0] for k, v in out.items()})
+    if apply is None:  # the model's physical checks, per variant (a negative mass in variant 3)
+        check_sweep_values(system, out)
     return out, n
 
 
@@ -167,10 +171,16 @@ def sweep(
     ``status`` with the time it stopped; the others are unaffected. ``apply(system, values)``
     (traceable; default ``System.with_params``) maps a variant's values to its System, for
     parameters that are functions of the swept ones (proleg.study uses it).
+
+    Checks first (analyses/checks.py): the simulate arguments, and each variant's values
+    against the model's physical rules (a negative mass in variant 3 is a ModelError naming
+    variant 3). Ctrl-C raises :class:`proleg.Interrupted` whose ``.result`` is a SweepResult of
+    the finished batches (``.result.variants``: their indices in the sweep).
     """
     import time
     from concurrent.futures import ThreadPoolExecutor
 
+    check_simulate(system, {"t_end": t_end, "dt_output": dt_output, **simulate_kw}, "sweep")
     values, n = _values(system, params, apply)
     apply = apply or System.with_params
     workers = default_workers() if workers is None else workers
@@ -208,18 +218,46 @@ def sweep(
         return [np.asarray(o)[: hi - lo] for o in out]
 
     t0 = time.perf_counter()
-    if concurrent:
-        # XLA releases the GIL while a batch runs, and with proleg's scheduler setting each
-        # batch keeps to one core: concurrent batches use the others (bench/vmap_batch.py).
-        # Their Newton matrices are factored lane by lane (``lu_per_lane``): jaxlib's batched
-        # LU waits on the shared thread pool and deadlocks two concurrent batches.
-        with ThreadPoolExecutor(min(workers, n_batches)) as pool:
-            parts = list(pool.map(run, range(n_batches)))
-    else:
-        parts = [run(b) for b in range(n_batches)]
-    wall = time.perf_counter() - t0
+    done = {}  # batch index -> outputs, kept when Ctrl-C stops the sweep
+    try:
+        if concurrent:
+            # XLA releases the GIL while a batch runs, and with proleg's scheduler setting each
+            # batch keeps to one core: concurrent batches use the others (bench/vmap_batch.py).
+            # Their Newton matrices are factored lane by lane (``lu_per_lane``): jaxlib's batched
+            # LU waits on the shared thread pool and deadlocks two concurrent batches.
+            from concurrent.futures import as_completed
+
+            pool = ThreadPoolExecutor(min(workers, n_batches))
+            try:
+                futures = {pool.submit(run, b): b for b in range(n_batches)}
+                for f in as_completed(futures):
+                    done[futures[f]] = f.result()
+            finally:
+                pool.shutdown(wait=False, cancel_futures=True)
+        else:
+            for b in range(n_batches):
+                done[b] = run(b)
+    except KeyboardInterrupt:
+        batches = sorted(done)
+        idx = np.concatenate([np.arange(b * bs, min((b + 1) * bs, n)) for b in batches]) if batches else np.arange(0)
+        res = _assemble_result(system, {k: v[idx] for k, v in values.items()}, [done[b] for b in batches], meta, apply)
+        res.variants = idx
+        from ..errors import Interrupted
+
+        raise Interrupted(
+            f"sweep interrupted (Ctrl-C) after {len(batches)} of {n_batches} batches; .result holds the "
+            f"{idx.size} finished variants (.result.variants: their indices in the sweep).", res,
+        ) from None
+    res = _assemble_result(system, values, [done[b] for b in range(n_batches)], meta, apply)
+    res.wall_time, res.compile_time = time.perf_counter() - t0, t_compile
+    return res
+
+
+def _assemble_result(system, values, parts, meta, apply):
+    if not parts:
+        return None
     q, v, w, z, status, ft, stats = (np.concatenate(p, 0) for p in zip(*parts))
     res = SweepResult(system, values, meta["t"], q, v, w, z, status, ft, stats, meta["integrator"], meta["coordinates"])
     res.apply = apply
-    res.wall_time, res.compile_time = wall, t_compile
+    res.variants = np.arange(len(res))
     return res

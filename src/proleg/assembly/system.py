@@ -16,7 +16,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..errors import ModelError
+from ..errors import ModelError, ProlegWarning
 from ..model.forces import Bushing, Force, RotationalBacklash, RotationalSpringDamper, SpringDamper, Torque
 from ..model.model import Model
 from ..spatial.rotation import G_of_p, L_of_p, mtv, mv, p_from_matrix
@@ -48,6 +48,10 @@ class Topology:
     n_eta: int = 0
     coloring: object = None  # sparsity.Coloring of the Newton matrix (set by assemble)
     planar: tuple = (None, "not checked")  # (coordinates.PlanarBasis or None, why) (set by assemble)
+    # Degrees of freedom at the modelled pose (set by assemble): "gruebler" (6 per part + modal
+    # coordinates − equations), "rank" (coordinates − rank of the constraint Jacobian, the true
+    # count), "redundant" rows, "initial_residual" (max |Φ| at the modelled pose, element, equation).
+    dof: dict = field(default_factory=dict)
 
     @property
     def nbody(self) -> int:
@@ -117,13 +121,22 @@ class System:
         new = dict(self.params)
         for key, val in {**(updates or {}), **kw}.items():
             name, idx = self._locate(key)
-            val = jnp.asarray(val, dtype=jnp.float64)
-            if idx is None:
-                if val.shape != new[name].shape:
-                    raise ModelError(f"Parameter '{key}' has shape {new[name].shape}; got {val.shape}.")
-                new[name] = val
-            else:
-                new[name] = new[name].at[idx].set(val)
+            try:
+                val = jnp.asarray(val, dtype=jnp.float64)
+            except (TypeError, ValueError):
+                raise ModelError(f"Parameter '{key}' must be numeric, got {val!r}.") from None
+            expected = new[name].shape if idx is None else new[name].shape[1:]
+            if val.shape != expected and [d for d in val.shape if d != 1] == [d for d in expected if d != 1]:
+                val = val.reshape(expected)  # only unit axes differ, e.g. (1,) for a scalar
+            if val.shape != expected:
+                what = "the whole array" if idx is None else "one element's value"
+                raise ModelError(
+                    f"Parameter '{key}' ({what}) has shape {expected}; got {val.shape}."
+                    + (f" Give one value per element ({expected[0]}) or set one element with 'name.field'." if idx is None and expected else "")
+                )
+            if not isinstance(val, jax.core.Tracer) and not np.all(np.isfinite(np.asarray(val))):
+                raise ModelError(f"Parameter '{key}' contains NaN or inf: {np.asarray(val).tolist()}. Give finite values.")
+            new[name] = val if idx is None else new[name].at[idx].set(val)
         return System(new, self.topo)
 
     def get(self, key: str):
@@ -512,15 +525,17 @@ def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
     if len(cpl):
         params["coupler_ratio"], params["coupler_offset"] = cpl[:, 0], cpl[:, 1]
 
+    _check_time_functions(model)
     # Redundancy: full row set at the modelled pose, then keep independent rows.
     ct_full = build_constraint_topology(rows, nm, nb, owners)
     topo.ct = ct_full
     sys_full = System({k: jnp.asarray(v, dtype=jnp.float64) for k, v in params.items()}, topo)
-    Phi_q = np.asarray(_jit_constraint_jacobian(sys_full, jnp.asarray(q0), 0.0))
+    Phi, Phi_q = (np.asarray(a) for a in _jit_constraints_and_jacobian(sys_full, jnp.asarray(q0), 0.0))
     if not np.all(np.isfinite(Phi_q)):
         raise ModelError(f"Model '{model.name}': the constraint Jacobian is not finite at the modelled pose.")
     ordered = [r for k in ROW_KINDS for r in rows if r["kind"] == k]
     keep, drop = find_redundant_rows(Phi_q, nb, tol=redundancy_tol)
+    dof = _dof_at_assembly(model, topo, owners, Phi, keep, drop)
     dropped = [(owners[ordered[i]["owner"]].name, ordered[i]["label"]) for i in drop]
     if dropped:
         warnings.warn(
@@ -528,13 +543,14 @@ def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
             + ", ".join(f"{j} ({lab})" for j, lab in dropped)
             + ". Their reactions are statically indeterminate (reported as 0); replace joints by "
             "lower-equation joints or bushings if the split matters.",
-            stacklevel=2,
+            ProlegWarning, stacklevel=2,
         )
         kept_rows = [ordered[i] for i in keep]
         # A new Topology object, not a mutated one: jit caches key on the topology's identity,
         # and executables compiled above for the full row set must not be reused for it.
         topo = dataclasses.replace(topo, ct=build_constraint_topology(kept_rows, nm, nb, owners))
     topo.dropped = dropped
+    topo.dof = {**dof, "redundant": list(dropped)}
     topo.coloring = jacobian_coloring(topo)
     system = System({k: jnp.asarray(v, dtype=jnp.float64) for k, v in params.items()}, topo)
     if topo.flex is None and any(getattr(j, "kind", "") in ("revolute", "planar") for j in topo.joints):
@@ -543,6 +559,7 @@ def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
         topo.planar = planar_basis(system, q0)
     else:
         topo.planar = (None, "no revolute joints" if topo.flex is None else "flexible bodies")
+    _check_part_loads(system)
     ctrl = next((g for g in extensions if g.kind == "controller"), None)
     if ctrl is not None:
         _check_controllers(system, ctrl)
@@ -554,6 +571,67 @@ def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
         )
         system = system.with_params(controller_setpoint0=th)
     return system
+
+
+_TRACE_HINT = (
+    "Write it with jax.numpy or proleg.fn, not math or numpy (jnp.sin(t), not math.sin(t)), and use "
+    "jnp.where(t < t1, a, b) instead of an `if` on t or float(t)."
+)
+
+
+def _trace(who: str, fn, *args, shapes=((),), unit=""):
+    """``jax.eval_shape(fn, *args)``; a tracer (or any) error → ModelError naming ``who``; the
+    output must have one of ``shapes`` (after dropping unit axes)."""
+    try:
+        out = jax.eval_shape(fn, *args)
+    except ModelError as exc:
+        raise ModelError(f"{who}: {exc}") from None
+    except Exception as exc:  # noqa: BLE001 - any failure to trace is the user's function
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+        raise ModelError(f"{who} cannot be traced by JAX ({type(exc).__name__}: {first[:160]}). {_TRACE_HINT}") from None
+    shape = tuple(d for d in getattr(out, "shape", (None,)) if d != 1)
+    if not hasattr(out, "shape") or shape not in [tuple(d for d in s if d != 1) for s in shapes]:
+        got = getattr(out, "shape", type(out).__name__)
+        exp = " or ".join(str(s) for s in shapes)
+        raise ModelError(f"{who} returns {got}; expected shape {exp}{(' [' + unit + ']') if unit else ''}.")
+
+
+def _check_time_functions(model: Model):
+    """Trace every function of time once (motions, PID setpoints): a ``math.sin`` or an ``if`` on
+    t is a ModelError naming the element here, not a ConcretizationTypeError inside a solver."""
+    t = jax.ShapeDtypeStruct((), jnp.float64)
+    for m in getattr(model, "motions", []):
+        for what in ("displacement", "velocity", "acceleration"):
+            f = getattr(m, what, None)
+            if f is not None:
+                _trace(f"Motion '{m.name}': its {what} function f(t)", lambda tt, f=f: jnp.asarray(f(tt), jnp.float64), t,
+                       unit="rad or m")
+    for c in getattr(model, "controllers", []):
+        if getattr(c, "kind", "") == "pid" and callable(c.setpoint):
+            _trace(f"PID '{c.name}': its setpoint function f(t)", lambda tt, f=c.setpoint: jnp.asarray(f(tt), jnp.float64), t)
+
+
+def _check_part_loads(system: System):
+    """Trace every Force/Torque function ``f(t)`` or ``f(t, state)`` once at the modelled state."""
+    from .elements import PartLoadGroup
+
+    q0, v0 = system.params["q_init"], system.params["v_init"]
+    for g in system.topo.groups:
+        if not isinstance(g, PartLoadGroup):
+            continue
+        for e in g.elements:
+            if e.fn is None:
+                continue
+
+            def call(s, q, v, t, e=e):
+                if e.arity <= 1:
+                    return jnp.asarray(e.fn(t), jnp.float64)
+                bk, mk = kinematics(s, q, v)
+                return jnp.asarray(e.fn(t, StateView(s.topo, bk, mk, t, None, s.params)), jnp.float64)
+
+            unit = "N" if g.kind == "force" else "N m"
+            _trace(f"{type(e).__name__} '{e.name}': its function f(t{'' if e.arity <= 1 else ', state'})", call, system, q0, v0,
+                   jax.ShapeDtypeStruct((), jnp.float64), shapes=((3,), ()), unit=f"{unit} in ground")
 
 
 def _check_controllers(system: System, ctrl):
@@ -577,18 +655,77 @@ def _check_controllers(system: System, ctrl):
 
 
 def dof_report(system: System) -> dict:
-    """Degrees of freedom by Gruebler count and by constraint-Jacobian rank, and redundant rows."""
-    topo = system.topo
-    n_eq = sum(j.n_equations for j in topo.joints) + sum(len(getattr(m, "equations", [])) for m in topo.ct.owners[len(topo.joints):])
-    q0 = system.params["q_init"]
-    Phi_q = np.asarray(_jit_constraint_jacobian(system, q0, 0.0))
-    rank = np.linalg.matrix_rank(Phi_q, tol=1e-9 * max(1.0, np.abs(Phi_q).max()))
-    return {
-        "parts": topo.nbody,
-        "gruebler": 6 * topo.nbody - n_eq,
-        "rank": 7 * topo.nbody - int(rank),
-        "redundant": list(topo.dropped),
-    }
+    """Degrees of freedom by Gruebler count and by constraint-Jacobian rank, redundant rows and the
+    constraint residual at the modelled pose (``system.topo.dof``, computed by :func:`assemble`)."""
+    return {"parts": system.topo.nbody, **system.topo.dof}
+
+
+def unconnected_parts(topo: Topology) -> list[str]:
+    """Parts that no joint, motion, force element, contact or actuator attaches to anything."""
+    connected = set()
+    for j in list(topo.joints) + list(getattr(topo.model, "motions", [])):
+        for m in (getattr(j, "marker_i", None), getattr(j, "marker_j", None)):
+            if m is not None:
+                connected.add(m.part.name)
+    for g in topo.groups + topo.extensions:
+        for e in getattr(g, "elements", []):
+            for attr in ("i", "j", "marker", "plane", "marker_i", "marker_j"):
+                m = getattr(e, attr, None)
+                if m is not None and hasattr(m, "part"):
+                    connected.add(m.part.name)
+            if hasattr(e, "part_names"):
+                connected.update(e.part_names())
+    return [n for n in topo.body_names if n not in connected]
+
+
+def _dof_at_assembly(model: Model, topo: Topology, owners, Phi, keep, drop=()) -> dict:
+    """DOF counts at the modelled pose, with a warning for a locked model, a part attached to
+    nothing (when others are attached) and joints the modelled pose violates."""
+    nb = topo.nbody
+    n_eq = sum(o.n_equations for o in owners)
+    dof = {"gruebler": 6 * nb + topo.n_eta - n_eq, "rank": topo.nq - nb - len(keep)}
+    nj = len(Phi) - nb
+    worst = int(np.argmax(np.abs(Phi[:nj]))) if nj else None
+    res = float(abs(Phi[worst])) if nj else 0.0
+    elem, lab = topo.ct.labels[worst] if nj else (None, None)
+    dof["initial_residual"] = (res, elem, lab)
+    if dof["rank"] == 0 and not getattr(model, "motions", []):
+        warnings.warn(
+            f"Model '{model.name}' has 0 degrees of freedom (Gruebler count {dof['gruebler']}, Jacobian rank count 0): "
+            "its joints lock every part, so nothing can move. Remove or free a joint (e.g. Fixed → Revolute) if it should.",
+            ProlegWarning, stacklevel=3,
+        )
+    free = unconnected_parts(topo)
+    if free and len(free) < nb:
+        warnings.warn(
+            f"Model '{model.name}': part(s) {free} are attached to nothing (no joint, force element or contact) and "
+            "will fall freely. Connect them, or remove them.",
+            ProlegWarning, stacklevel=3,
+        )
+    bad_drop = [int(i) for i in drop if abs(Phi[i]) > INITIAL_RESIDUAL_WARN]
+    if bad_drop:
+        i = max(bad_drop, key=lambda k: abs(Phi[k]))
+        warnings.warn(
+            f"Model '{model.name}': the modelled pose violates '{topo.ct.labels[i][0]}' ({topo.ct.labels[i][1]}) by "
+            f"{abs(Phi[i]):.3g} (m or rad), and that equation is redundant, so it is removed and never enforced: the "
+            "joints contradict each other. Fix the joint locations (a simulation would run with it violated).",
+            ProlegWarning, stacklevel=3,
+        )
+    elif res > INITIAL_RESIDUAL_WARN:
+        warnings.warn(
+            f"Model '{model.name}': the modelled pose violates '{elem}' ({lab}) by {res:.3g} (m or rad); the "
+            "initial-conditions analysis will move parts to assemble it. Check the joint location and part poses.",
+            ProlegWarning, stacklevel=3,
+        )
+    return dof
+
+
+INITIAL_RESIDUAL_WARN = 1e-4  # [m or rad]: above round-off and URDF rounding, below a modelling slip
+
+
+@jax.jit
+def _jit_constraints_and_jacobian(system: System, q, t):
+    return constraints(system, q, t), constraint_jacobian(system, q, t)
 
 
 def kinematic_energy_terms(system: System, q, v, t=0.0, z=None):

@@ -66,11 +66,12 @@ def info(
     json_out: bool = typer.Option(False, "--json"),
     fixed_base: bool = typer.Option(False, "--fixed-base", help="URDF: weld the root link to ground (default: floating base)."),
 ):
-    """Parts, markers, joints, elements, degrees of freedom (Gruebler and Jacobian rank), redundant constraints."""
+    """Parts, markers, joints, elements, degrees of freedom (Gruebler and Jacobian rank), redundant
+    constraints, the joint residual at the modelled pose, parts attached to nothing."""
     import warnings
 
     import proleg as pl
-    from proleg.assembly.system import dof_report
+    from proleg.assembly.system import dof_report, unconnected_parts
 
     mdl, _ = _load(model, fixed_base)
     with warnings.catch_warnings():
@@ -89,6 +90,9 @@ def info(
         "dof_gruebler": dof["gruebler"],
         "dof_rank": dof["rank"],
         "redundant": [f"{j}: {lab}" for j, lab in dof["redundant"]],
+        "initial_residual": (f"{dof['initial_residual'][0]:.3g} ({dof['initial_residual'][1]}: {dof['initial_residual'][2]})"
+                             if dof["initial_residual"][0] > 1e-12 else "0"),
+        "unconnected_parts": unconnected_parts(system.topo),
         # What simulate's coordinates="auto" runs on (assembly/coordinates.py).
         "coordinates": "planar (3 per part)" if system.topo.planar[0] is not None else f"absolute (not planar: {system.topo.planar[1]})",
     }

@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ModelError
+from ..model._validate import inertia_problem as _check_inertia
 
 
 class UrdfWarning(UserWarning):
@@ -190,14 +191,6 @@ def _link_inertial(link):
     return float(ine.mass), X[:3, 3].copy(), R @ J @ R.T
 
 
-def _check_inertia(J):
-    """None if ``J`` is a valid inertia tensor, else a description of what is wrong."""
-    w = np.linalg.eigvalsh(0.5 * (J + J.T))
-    if w.min() <= 0:
-        return f"is not positive definite (principal moments {np.round(w, 12).tolist()} kg m^2)"
-    if w[0] + w[1] < w[2] * (1 - 1e-9):
-        return f"violates the triangle inequality (principal moments {np.round(w, 12).tolist()} kg m^2)"
-    return None
 
 
 # ---------------------------------------------------------------------------------------------

@@ -79,3 +79,15 @@ def inertia_tensor(name: str, value) -> np.ndarray:
             "(each must be at most the sum of the other two). Check the values and their axes."
         )
     return J
+
+
+def inertia_problem(J) -> str | None:
+    """None if ``J`` (3x3) is a valid inertia tensor, else a description of what is wrong (for
+    callers that word their own error: URDF links, sweep variants)."""
+    J = np.asarray(J, float)
+    w = np.linalg.eigvalsh(0.5 * (J + J.T))
+    if w.min() <= 0:
+        return f"is not positive definite (principal moments {np.round(w, 12).tolist()} kg m^2)"
+    if w[0] + w[1] < w[2] * (1 - 1e-9):
+        return f"violates the triangle inequality (principal moments {np.round(w, 12).tolist()} kg m^2)"
+    return None

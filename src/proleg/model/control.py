@@ -225,6 +225,17 @@ class PID:
         self.kp = finite_scalar(f"{who} kp", kp)
         self.kd = finite_scalar(f"{who} kd", kd)
         self.ki = finite_scalar(f"{who} ki", ki)
+        neg = [f"{k} = {v:g}" for k, v in (("kp", self.kp), ("kd", self.kd), ("ki", self.ki)) if v < 0]
+        if neg:
+            import warnings
+
+            from ..errors import ProlegWarning
+
+            warnings.warn(
+                f"{who}: negative gain {', '.join(neg)}; u = kp (θ_set − θ) + ki ∫ − kd θ̇ then pushes away from the "
+                "setpoint (positive feedback). Give gains ≥ 0, or swap the joint's markers I and J to reverse its sign.",
+                ProlegWarning, stacklevel=2,
+            )
         self.period = finite_scalar(f"{who} period", period, unit="s")
         if not self.period > 0:
             raise ModelError(f"{who}: the sample period must be positive [s], got {self.period}. 1e-3 is a 1 kHz servo.")
