@@ -18,7 +18,7 @@ from proleg.flex import cantilever_first_omega, elastica_tip
 from proleg.fem import material
 from proleg.robots import flegx, flegx_data as D, flegx_jump
 from proleg.robots.flegx import add_link, strip_reduced
-from proleg.robots.flegx_jump import MotionLaw, worm_torques
+from proleg.robots.flegx_jump import MotionLaw, jump_flight, worm_torques
 from proleg.units import deg
 
 MAT = material("aisi304")
@@ -154,7 +154,7 @@ def test_take_off_bookkeeping_rise_is_v2_over_2g(rigid_jump):
     v²/2g with v its vertical velocity at take-off, within 1e-3 (relative)."""
     j = rigid_jump
     m, res = j.metrics, j.result
-    assert 0.03 < m["jump_height"] < 0.12 and m["take_off_time"] < m["landing_time"]
+    assert 0.03 < m["jump_height"] < 0.12 and m["take_off_time"] < m["apex_time"] < m["landing_time"]
     t = res.t
     i0 = int(np.searchsorted(t, m["take_off_time"]))
     i1 = int(np.searchsorted(t, m["landing_time"]))
@@ -226,3 +226,28 @@ def test_bad_input_errors():
         MotionLaw(extend=(60 * deg, 30 * deg)).validate()
     with pytest.raises(pl.ModelError, match="t_push"):
         MotionLaw(t_push=0.0).validate()
+
+
+def test_jump_flight_is_robust_to_touch_and_go_and_hops():
+    """The jump is the flight that holds the highest airborne guide position; its height is
+    measured from the standing height, so a touch-and-go before it (the still-extending leg)
+    and the hops after the landing change neither the height nor the flight picked."""
+    law = MotionLaw(t_settle=0.1, t_squat=0.3, t_hold=0.05, t_push=0.2)  # push starts at 0.45 s
+    t = np.arange(0.0, 1.5, 1e-3)
+    g = 9.81
+    z_stand, t_to, v = 0.40, 0.62, 1.0  # ballistic flight from 0.62 s
+    z = np.where(t < t_to, z_stand + 0.05 * np.clip((t - 0.45) / 0.17, 0, 1), z_stand + 0.05 + v * (t - t_to) - 0.5 * g * (t - t_to) ** 2)
+    t_ld = t_to + 2 * v / g
+    N = np.where((t < t_to) | (t >= t_ld), 100.0, 0.0)
+    N[(t >= 0.55) & (t < 0.57)] = 0.0  # touch-and-go while extending
+    z = np.where(t >= t_ld, z_stand, z)
+    N[(t >= 1.2) & (t < 1.25)] = 0.0  # a hop after the landing (guide at the standing height)
+    jump, (i_to, i_ld) = jump_flight(t, z, N, law)
+    assert jump["flights"] == 3
+    assert jump["take_off_time"] == pytest.approx(t_to, abs=1e-3)
+    assert jump["landing_time"] == pytest.approx(t_ld, abs=1e-3)
+    assert jump["jump_height"] == pytest.approx(0.05 + v**2 / (2 * g), abs=1e-5)
+    assert jump["flight_rise"] == pytest.approx(v**2 / (2 * g), abs=1e-5)
+    # a leg that never leaves the ground did not jump, however far it extends
+    none, _ = jump_flight(t, z, np.full_like(t, 50.0), law)
+    assert none["jump_height"] == 0.0 and none["flights"] == 0 and math.isnan(none["take_off_time"])

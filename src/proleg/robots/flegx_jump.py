@@ -23,16 +23,23 @@ function of time" on the hip and knee.
 
 Jump metrics
 ------------
-- ``take_off_time`` [s] and ``landing_time``: start and end (first and last-plus-one output
-  with zero foot normal force) of the flight that contains the guide's highest point after
-  the push starts (none: the leg did not jump, ``jump_height`` = 0): a brief
-  touch-and-go of the still-extending leg before the main flight, and the hops after the
-  landing (the strip springs back), are not the jump. ``flights`` counts all airborne phases.
-- ``jump_height`` [m]: the paper's "jumping height" is taken as the **guide's rise** from
-  take-off to the apex of the flight (the hip's ballistic rise, ≈ v²/2g with v the take-off
-  velocity; the usual jump height of jumping biomechanics). ``foot_clearance`` is the highest
-  position of the foot cylinder's lowest point above the ground during the flight (smaller:
-  the leg is still extending when the foot leaves the ground).
+- ``jump_height`` [m], the paper's "jumping height" (seed 002 §IV: "the maximum jumping height
+  reached"; Fig. 4: "a 50 mm jump"), taken as the **guide's rise at the apex above its standing
+  height**: the highest guide (hip) position while the foot is in the air after the push
+  starts, minus the guide's height standing still on the ground (at the end of ``t_settle``).
+  It is what the guide's linear encoder reads, and equals the foot's clearance above the
+  ground when the leg is back in its standing pose at the apex (the landing pose is the
+  standing one). It needs no take-off instant, so a touch-and-go of the still-extending leg
+  before the main flight, or the hops after the landing, cannot change it by a jump; 0 if the
+  foot never leaves the ground. Seed 002 does not say which height it measured; the other
+  two readings are reported beside it: ``foot_clearance`` (highest point of the foot
+  cylinder's lowest point above the ground during the jump's flight; smaller when the leg
+  is still extended at the apex) and ``flight_rise`` (the guide's rise from the flight's
+  take-off to its apex, ≈ v²/2g of the ballistic flight, larger: it counts the leg's
+  extension between standing and take-off).
+- ``take_off_time``, ``apex_time`` and ``landing_time`` [s]: the flight that contains that apex
+  (first sample with zero foot normal force, the apex, first sample in contact again; landing
+  NaN if the run ends in the air). ``flights`` counts all airborne phases after the push starts.
 - ``max_stress`` [Pa]: von Mises at the clamped end of the strip, over the whole run
   (take-off and landing; ``max_stress_takeoff`` up to take-off, Table I's phase). CB: stress
   recovery of the modal body (σ_xx at the root surfaces). Rigid and PRBM: from the clamp's
@@ -58,7 +65,7 @@ from ..units import deg
 from . import flegx_data as D
 from .flegx import check_angles, flegx
 
-__all__ = ["MotionLaw", "flegx_jump", "JumpResult", "worm_torques", "worm_friction", "jump_metrics"]
+__all__ = ["MotionLaw", "flegx_jump", "JumpResult", "worm_torques", "worm_friction", "jump_metrics", "jump_flight"]
 
 
 @dataclass(frozen=True)
@@ -306,28 +313,15 @@ def jump_metrics(res, model, law: MotionLaw) -> tuple[dict, dict]:
     hip_w = worm_torques(hip_tau, w_up, info.gears)
     knee_w = worm_torques(knee_wheel_tau, w_knee_wheel, info.gears)
 
-    # take-off and landing: the flight that contains the guide's apex after the push starts (a
-    # touch-and-go of the still-extending leg, or the hops after landing, are not the jump)
-    i0 = int(np.searchsorted(t, law.push_start))
-    air = np.r_[False, N[i0:] <= 0.0, False]
-    edges = np.flatnonzero(np.diff(air.astype(int)))
-    starts, ends = edges[0::2], edges[1::2]  # flight k: samples i0 + starts[k] ... i0 + ends[k] - 1
-    m = dict(total_mass=info.total_mass)
-    k_apex = int(np.argmax(gz[i0:]))
-    hit = np.flatnonzero((starts <= k_apex) & (k_apex < ends))
-    if hit.size:
-        k = int(hit[0])
-        i_to = i0 + int(starts[k])
-        landed = i0 + int(ends[k]) < len(t)
-        i_ld = min(i0 + int(ends[k]), len(t) - 1)
-        flight = slice(i_to, i_ld + 1)
-        m.update(take_off_time=float(t[i_to]), landing_time=float(t[i_ld]) if landed else math.nan,
-                 jump_height=float(np.max(gz[flight]) - gz[i_to]), foot_clearance=float(np.max(foot_z[flight])),
-                 take_off_velocity=float(gvz[i_to]), max_stress_takeoff=float(np.max(stress[: i_to + 1])),
-                 flights=int(starts.size))
+    # take-off and landing (module docstring): the flight that contains the guide's highest
+    # airborne point after the push starts; the jump height is that point above the standing height
+    jump, (i_to, i_ld) = jump_flight(t, gz, N, law)
+    m = dict(total_mass=info.total_mass, **jump)
+    if jump["flights"]:
+        m.update(foot_clearance=float(np.max(foot_z[i_to : i_ld + 1])), take_off_velocity=float(gvz[i_to]),
+                 max_stress_takeoff=float(np.max(stress[: i_to + 1])))
     else:
-        m.update(take_off_time=math.nan, landing_time=math.nan, jump_height=0.0, foot_clearance=0.0,
-                 take_off_velocity=math.nan, max_stress_takeoff=float(np.max(stress)), flights=0)
+        m.update(foot_clearance=0.0, take_off_velocity=math.nan, max_stress_takeoff=float(np.max(stress)))
     m.update(
         max_stress=float(np.max(stress)), max_stress_clamp_reaction=float(np.max(stress_clamp)),
         tip_displacement=float(np.max(np.abs(tip))),
@@ -350,6 +344,37 @@ def jump_metrics(res, model, law: MotionLaw) -> tuple[dict, dict]:
         "hip_mesh_loss [W]": hip_w["mesh_loss"], "knee_mesh_loss [W]": knee_w["mesh_loss"],
     }
     return m, series
+
+
+def jump_flight(t, guide_z, normal_force, law: MotionLaw) -> tuple[dict, tuple[int, int]]:
+    """The jump in a run (module docstring, "Jump metrics"): ``jump_height`` [m], ``flight_rise`` [m],
+    ``take_off_time``/``landing_time``/``apex_time`` [s], ``flights`` (airborne phases after the push
+    starts), and the indices (take-off, landing) of the flight (landing: the last sample if the
+    run ends in the air).
+
+    t (n,) [s], guide_z (n,) [m] guide (hip) height, normal_force (n,) [N] foot contact force;
+    airborne = zero contact force. Robust to touch-and-go and to the hops after the landing: the
+    jump is the flight that holds the highest airborne guide position, and its height is measured
+    from the standing height (the guide at the end of ``t_settle``), not from a take-off.
+    """
+    t, gz, N = (np.asarray(a, float) for a in (t, guide_z, normal_force))
+    i0 = int(np.searchsorted(t, law.push_start))
+    air = np.r_[False, N[i0:] <= 0.0, False]
+    edges = np.flatnonzero(np.diff(air.astype(int)))
+    starts, ends = i0 + edges[0::2], i0 + edges[1::2]  # flight k: samples starts[k] ... ends[k] - 1
+    if not starts.size:
+        return dict(jump_height=0.0, flight_rise=0.0, take_off_time=math.nan, landing_time=math.nan, apex_time=math.nan,
+                    flights=0), (len(t) - 1, len(t) - 1)
+    z_air = np.where(air[1:-1], gz[i0:], -np.inf)
+    i_apex = i0 + int(np.argmax(z_air))
+    k = int(np.flatnonzero((starts <= i_apex) & (i_apex < ends))[0])
+    i_to, i_end = int(starts[k]), int(ends[k])
+    landed = i_end < len(t)
+    i_ld = min(i_end, len(t) - 1)
+    z_stand = gz[int(np.searchsorted(t, law.t_settle))]
+    return dict(jump_height=float(max(gz[i_apex] - z_stand, 0.0)), flight_rise=float(gz[i_apex] - gz[i_to]),
+                take_off_time=float(t[i_to]), landing_time=float(t[i_ld]) if landed else math.nan,
+                apex_time=float(t[i_apex]), flights=int(starts.size)), (i_to, i_ld)
 
 
 def _strip_axis_local(model):
