@@ -65,7 +65,7 @@ from ..units import deg
 from . import flegx_data as D
 from .flegx import check_angles, flegx
 
-__all__ = ["MotionLaw", "flegx_jump", "JumpResult", "worm_torques", "worm_friction", "jump_metrics", "jump_flight"]
+__all__ = ["MotionLaw", "flegx_jump", "JumpResult", "worm_torques", "worm_friction", "jump_metrics", "jump_flight", "worm_drive_outputs"]
 
 
 @dataclass(frozen=True)
@@ -212,15 +212,26 @@ class JumpResult:
 
 
 def _add_motions(model, law: MotionLaw):
+    """The law's joint motions on the wheels (ideal gears) or on the worm sliders, s = n r1 Δθ (worm)."""
     info = model.flegx
     s1, s2 = info.stand
     if abs(law.stand[0] - s1) > 1e-12 or abs(law.stand[1] - s2) > 1e-12:
         raise ModelError("flegx_jump: the motion law's stand pose must be the model's modelled pose (flegx(stand=...)).")
-    model.add_motion(Motion("hip_motion", "hip", displacement=lambda t: law.angle(0, t) - s1))
+    hip = lambda t: law.angle(0, t) - s1  # noqa: E731
     if info.knee_drive == "tendon":
-        model.add_motion(Motion("knee_motion", "knee_wheel", displacement=lambda t: law.angle(0, t) + law.angle(1, t) - s1 - s2))
+        knee, knee_joint = (lambda t: law.angle(0, t) + law.angle(1, t) - s1 - s2), "knee_wheel"
     else:
-        model.add_motion(Motion("knee_motion", "knee", displacement=lambda t: law.angle(1, t) - s2))
+        knee, knee_joint = (lambda t: law.angle(1, t) - s2), "knee"
+    if info.gears == "worm":
+        from ..drives.gears import WormGear
+
+        wg = WormGear(**D.WORM)
+        a = wg.ratio * 0.5 * wg.worm_pitch_diameter  # s = n r1 θ
+        model.add_motion(Motion("hip_motion", "hip_worm", displacement=lambda t: a * hip(t)))
+        model.add_motion(Motion("knee_motion", "knee_worm", displacement=lambda t: a * knee(t)))
+    else:
+        model.add_motion(Motion("hip_motion", "hip", displacement=hip))
+        model.add_motion(Motion("knee_motion", knee_joint, displacement=knee))
 
 
 def flegx_jump(configuration: int = 4, link_case: int = 2, link_model: str = "cb", gears: str = "ideal", *,
@@ -296,11 +307,20 @@ def jump_metrics(res, model, law: MotionLaw) -> tuple[dict, dict]:
         tip = np.zeros_like(t)
 
     # torques at the joints and at the worms
-    hip_tau = np.asarray(res.motion("hip_motion").effort)
-    knee_wheel_tau = np.asarray(res.motion("knee_motion").effort)
     w_up = np.asarray(res.part("upper_leg").angular_velocity[:, 1])
     if info.knee_drive == "tendon":
         w_knee_wheel = np.asarray(res.part("knee_wheel").angular_velocity[:, 1])
+    else:
+        w_knee_wheel = np.asarray(res.part("knee_flange").angular_velocity[:, 1]) - w_up
+    if info.gears == "worm":
+        hip_w, knee_w = worm_drive_outputs(res, model, "hip"), worm_drive_outputs(res, model, "knee")
+        hip_tau, knee_wheel_tau = hip_w["wheel_torque"], knee_w["wheel_torque"]
+    else:
+        hip_tau = np.asarray(res.motion("hip_motion").effort)
+        knee_wheel_tau = np.asarray(res.motion("knee_motion").effort)
+        hip_w = worm_torques(hip_tau, w_up, "ideal")
+        knee_w = worm_torques(knee_wheel_tau, w_knee_wheel, "ideal")
+    if info.knee_drive == "tendon":
         K = np.asarray(res.marker("knee.I").position)
         knee_joint_tau = np.zeros_like(t)
         for s in "ab":
@@ -308,10 +328,7 @@ def jump_metrics(res, model, law: MotionLaw) -> tuple[dict, dict]:
             B = np.asarray(res.marker(f"tendon_{s}.knee.J").position)
             knee_joint_tau += np.cross(B - K, -np.asarray(jr.force))[:, 1]
     else:
-        w_knee_wheel = np.asarray(res.part("knee_flange").angular_velocity[:, 1]) - w_up
         knee_joint_tau = knee_wheel_tau
-    hip_w = worm_torques(hip_tau, w_up, info.gears)
-    knee_w = worm_torques(knee_wheel_tau, w_knee_wheel, info.gears)
 
     # take-off and landing (module docstring): the flight that contains the guide's highest
     # airborne point after the push starts; the jump height is that point above the standing height
@@ -343,7 +360,56 @@ def jump_metrics(res, model, law: MotionLaw) -> tuple[dict, dict]:
         "hip_power_out [W]": hip_w["power_out"], "knee_power_out [W]": knee_w["power_out"],
         "hip_mesh_loss [W]": hip_w["mesh_loss"], "knee_mesh_loss [W]": knee_w["mesh_loss"],
     }
+    if info.gears == "worm":  # the rest of the drives' energy bookkeeping (worm_drive_outputs)
+        for d, o in (("hip", hip_w), ("knee", knee_w)):
+            for k in ("spring_energy", "damping_power", "worm_kinetic_energy"):
+                series[f"{d}_{k} [{'W' if k.endswith('power') else 'J'}]"] = o[k]
     return m, series
+
+
+def worm_drive_outputs(res, model, drive: str) -> dict:
+    """The worm drive ``drive`` ("hip" or "knee") of a ``gears="worm"`` run, recomputed from the
+    result with the same :func:`~proleg.drives.gears.worm_mesh` the dynamics used.
+
+    Returns arrays (n,): ``wheel_torque`` T [N m] (on the wheel about its joint axis),
+    ``worm_torque`` r1 F_motor [N m] (the motor's torque at the worm: the Motion's effort times
+    r1), ``worm_speed`` [rad/s], ``power_in`` (motor) and ``power_out`` (T φ̇ into the wheel)
+    [W], ``mesh_loss`` (friction power μ W v_s) and ``damping_power`` (c δ̇²) [W],
+    ``spring_energy`` [J] (mesh) and ``worm_kinetic_energy`` [J] (rotor, relative to the
+    housing), ``mu``, ``sliding_speed`` [m/s], ``normal_force`` [N], ``efficiency`` (power_out /
+    power_in where the worm drives, NaN elsewhere), ``back_efficiency`` (power_in / power_out
+    where the wheel drives). Work balance: power_in = power_out + mesh_loss + damping_power +
+    d/dt(spring_energy + worm_kinetic_energy) (the test of ``gears="worm"``).
+    """
+    import jax.numpy as jnp
+
+    from ..drives.gears import WormGear, worm_mesh
+
+    wg = WormGear(**D.WORM)
+    r1 = 0.5 * wg.worm_pitch_diameter
+    wheel_joint = {"hip": "hip", "knee": "knee_wheel" if model.flegx.knee_drive == "tendon" else "knee"}[drive]
+    pj = res.joint(f"{drive}_worm")
+    zs = np.asarray(res.marker(f"{drive}_worm.J").orientation)[:, :, 2]
+    sd = np.sum(zs * (np.asarray(res.marker(f"{drive}_worm.I").velocity) - np.asarray(res.marker(f"{drive}_worm.J").velocity)), -1)
+    wi, wj = (np.asarray(res.marker(f"{wheel_joint}.{e}").angular_velocity) for e in "IJ")
+    zw = np.asarray(res.marker(f"{wheel_joint}.J").orientation)[:, :, 2]
+    phid = np.sum(zw * (wi - wj), -1)
+    p = res.system.params
+    r2c = 0.5 * wg.wheel_pitch_diameter * math.cos(wg.lead_angle)
+    out = {k: np.asarray(v) for k, v in worm_mesh(
+        wg, jnp.asarray(pj.translation), jnp.asarray(sd), jnp.asarray(res.joint(wheel_joint).angle), jnp.asarray(phid),
+        D.WORM_MESH_STIFFNESS / r2c**2, D.WORM_MESH_DAMPING / r2c**2, p["variable_worm_f_static"], p["variable_worm_f_dynamic"],
+        D.WORM_V_STATIC, D.WORM_V_DYNAMIC).items()}
+    F = np.asarray(res.motion(f"{drive}_motion").effort)
+    m = next(q.mass for q in model.parts if q.name == f"{drive}_worm")
+    P_in, P_out = F * sd, out["wheel_torque"] * phid
+    with np.errstate(invalid="ignore", divide="ignore"):
+        eff = np.where((P_in > 0) & (P_out > 0), P_out / P_in, np.nan)
+        back = np.where((P_in < 0) & (P_out < 0), P_in / P_out, np.nan)
+    return dict(wheel_torque=out["wheel_torque"], worm_torque=F * r1, worm_speed=sd / r1, power_in=P_in, power_out=P_out,
+                mesh_loss=out["friction_power"], damping_power=D.WORM_MESH_DAMPING / r2c**2 * out["approach_rate"] ** 2,
+                spring_energy=out["spring_energy"], worm_kinetic_energy=0.5 * m * sd**2, mu=out["mu"],
+                sliding_speed=out["sliding_speed"], normal_force=out["normal_force"], efficiency=eff, back_efficiency=back)
 
 
 def jump_flight(t, guide_z, normal_force, law: MotionLaw) -> tuple[dict, tuple[int, int]]:

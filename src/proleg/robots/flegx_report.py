@@ -26,10 +26,22 @@ def _job(kw: dict) -> dict:
 
     t0 = time.perf_counter()
     kw = dict(kw)
-    tag = kw.pop("tag")
+    tag, animate = kw.pop("tag"), kw.pop("animate", False)
     j = flegx_jump(**kw)
     info = j.model.flegx
-    return {"tag": tag, "metrics": j.metrics, "series": pd.DataFrame(j.series), "parameters": info.parameters,
+    html = None
+    if animate:  # the 3D animation as an <iframe> (a string: picklable from a worker process)
+        from types import SimpleNamespace
+
+        from ..report.animate import animation_iframe
+
+        if info.link_model == "cb":  # the strip as its undeformed L × W × t plate from the clamped frame node
+            L, W, t = info.link_geometry
+            X_PV = np.eye(4)
+            X_PV[0, 3] = 0.5 * L
+            j.model.urdf = SimpleNamespace(visuals=[SimpleNamespace(part="link", kind="box", X_PV=X_PV, size=(L, W, t), color=None)])
+        html = animation_iframe(j.result, model=j.model, title=f"FLEGX jump, {LABELS.get(tag, tag)}", max_frames=650)
+    return {"tag": tag, "metrics": j.metrics, "animation": html, "series": pd.DataFrame(j.series), "parameters": info.parameters,
             "wall": time.perf_counter() - t0, "sim": j.wall_s, "steps": j.result.stats["steps"],
             "masses": info.masses, "prbm": None if info.prbm is None else info.prbm.as_dict(),
             "frequencies_hz": None if not info.cb else np.asarray(info.cb["body"].frequencies_hz[:4]).tolist()}
@@ -136,7 +148,7 @@ def run_jump(out_dir="results/flegx-jump", progress: bool = True, workers: int |
     wall0 = time.perf_counter()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    jobs = [dict(tag=lm, configuration=4, link_case=2, link_model=lm, dt_output=1e-3) for lm in ("cb", "prbm", "rigid")]
+    jobs = [dict(tag=lm, configuration=4, link_case=2, link_model=lm, dt_output=1e-3, animate=lm == "cb") for lm in ("cb", "prbm", "rigid")]
     outs = run_jobs(jobs, workers, progress)
     outs = sorted(outs, key=lambda o: ("rigid", "prbm", "cb").index(o["tag"]))
     tab = _metrics_table(outs)
@@ -170,6 +182,11 @@ def run_jump(out_dir="results/flegx-jump", progress: bool = True, workers: int |
         fig.savefig(out / f"fig{k}.png", dpi=110, bbox_inches="tight")
         rep.add_figure(fig, cap)
     rep.add_text(_jump_findings(outs))
+    rep.add_heading("3D animation (Craig-Bampton link)")
+    rep.add_text("The whole run (stand, squat, push, flight, landing) of the CB model; drag to orbit, the slider scrubs time. "
+                 "The strip is drawn undeformed (its modal deformation, tens of mm at the tip, is in the figures above); "
+                 "the other parts as boxes of their inertia, the foot contact force as an arrow.")
+    rep.add_html(next(o["animation"] for o in outs if o["tag"] == "cb"))
     rep.add_heading("Model")
     pr = next(o["prbm"] for o in outs if o["tag"] == "prbm")
     fr = next(o["frequencies_hz"] for o in outs if o["tag"] == "cb")
@@ -259,51 +276,50 @@ def run_machinery(out_dir="results/flegx-machinery", progress: bool = True, work
 # ------------------------------------------------------------------------------------------
 # flegx-study
 # ------------------------------------------------------------------------------------------
-#: the study simulates the take-off and the flight's apex only (Table I: "the investigated
-#: movement was the take-off phase"): 0.3 s after the end of the push
-STUDY_T_AFTER = 0.3
-
-
-def study_jobs(configurations=(1, 2, 3, 4), cases=(1, 2, 3, 4, 5, 6), cb_case=2) -> list[dict]:
-    """CB jobs first (the longest), then the PRBM grid."""
-    jobs = [dict(tag=f"No.{c} case {cb_case} cb", configuration=c, link_case=cb_case, link_model="cb", dt_output=2e-3,
-                 t_after=STUDY_T_AFTER) for c in configurations]
-    jobs += [dict(tag=f"No.{c} case {k} prbm", configuration=c, link_case=k, link_model="prbm", dt_output=2e-3,
-                  t_after=STUDY_T_AFTER) for c in configurations for k in cases]
-    return jobs
-
-
-def study_table(outs) -> pd.DataFrame:
-    rows = []
-    for o in outs:
-        tag = o["tag"].split()
-        m = o["metrics"]
-        rows.append({"configuration": int(tag[0][3:]), "link case": int(tag[2]), "link model": tag[3],
-                     "total mass [kg]": m["total_mass"], "jump height [mm]": m["jump_height"] * 1e3,
-                     "max stress take-off [MPa]": m["max_stress_takeoff"] / 1e6, "max stress all [MPa]": m["max_stress"] / 1e6,
-                     "tip displacement [mm]": m["tip_displacement"] * 1e3, "> 510 MPa": m["max_stress_takeoff"] > D.ULTIMATE_STRENGTH[0],
-                     "wall [s]": o["wall"]})
-    return pd.DataFrame(rows)
+def study_table(rows: pd.DataFrame) -> pd.DataFrame:
+    """The study's rows (``flegx_study.run_table_i``) in report units."""
+    r = rows
+    return pd.DataFrame({
+        "configuration": r["configuration"], "link case": r["link_case"], "link model": r["link model"],
+        "total mass [kg]": r["total_mass"], "jump height [mm]": r["jump_height"] * 1e3, "foot clearance [mm]": r["foot_clearance"] * 1e3,
+        "flight rise [mm]": r["flight_rise"] * 1e3, "max stress take-off [MPa]": r["max_stress_takeoff"] / 1e6,
+        "tip displacement [mm]": r["tip_displacement"] * 1e3, "> 510 MPa": r["> 510 MPa"],
+        "apex in window": r["apex_in_window"] > 0.5, "status": r["status"], "steps": r["steps"], "wall/variant [s]": r["wall_s"],
+    })
 
 
 def run_study(out_dir="results/flegx-study", progress: bool = True, workers: int | None = None, configurations=(1, 2, 3, 4),
               cases=(1, 2, 3, 4, 5, 6)) -> Path:
-    """Configurations No. 1-4 × link cases 1-6 (PRBM) + the CB link for case 2: Table I."""
+    """Configurations No. 1-4 × link cases 1-6 (PRBM) + the CB link for case 2: Table I, as
+    :class:`proleg.study.Study` groups (``flegx_study``), stored in ``out_dir/store`` (resumable)."""
+    import resource
+
     from ..report.html import Report
+    from .flegx_study import STUDY_T_AFTER, ranking, run_table_i, study_groups
 
     wall0 = time.perf_counter()
+    load0 = os.getloadavg()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    outs = run_jobs(study_jobs(configurations, cases), workers, progress)
-    tab = study_table(outs)
+    rows = run_table_i(out / "store", configurations, cases, 2, progress=progress, workers=workers)
+    wall = time.perf_counter() - wall0
+    cpu = sum(getattr(resource.getrusage(w), f) for w in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN) for f in ("ru_utime", "ru_stime"))
+    tab = study_table(rows)
     tab.to_parquet(out / "study.parquet", index=False)
     rep = Report("FLEGX design study: configurations No. 1-4 × link cases 1-6", "seed 002 §IV, Table I; proleg")
     rep.add_heading("What was simulated")
     rep.add_text(
         "The countermovement jump of flegx_jump (same motion law for all) for every upper-leg configuration of Fig. 2 "
         "and every built link, with the PRBM link, and with the Craig-Bampton link for the 250 × 70 × 3 mm strip "
-        "(Table I's). Configurations differ in their mass split (flegx_data): the totals of Table I with link case 2. "
-        "Stress over 510 MPa (the low end of AISI 304's ultimate strength, seed 002 §IV) up to take-off is flagged.")
+        "(Table I's), up to the apex of the jump "
+        f"({STUDY_T_AFTER} s after the end of the push; Table I: \"the investigated movement was the take-off phase\"). "
+        "Configurations differ in their mass split (flegx_data): the totals of Table I with link case 2. "
+        "Stress over 510 MPa (the low end of AISI 304's ultimate strength, seed 002 §IV) up to take-off is flagged. "
+        "Jump height: the guide's highest airborne position above its standing height (flegx_jump docstring).")
+    rep.add_text("Run as proleg.study Studies, one per compiled shape (" + ", ".join(
+        f"{g['name']}: {len(g['configurations']) * len(g['cases'])} variants" for g in study_groups(configurations, cases, 2))
+        + "): each variant is the group's System with its own parameters (mass split, strip geometry, PRBM constants), "
+        "all of a group in one vmap batch; rows in a Parquet store (store/), a rerun skips what is stored.")
     rep.add_heading("Table I next to the paper")
     t1 = []
     for c in configurations:
@@ -321,11 +337,17 @@ def run_study(out_dir="results/flegx-study", progress: bool = True, workers: int
     t1.to_parquet(out / "table1.parquet", index=False)
     rep.add_table(t1, "Link 250 × 70 × 3 mm: total mass, jump height, max stress up to take-off, proleg vs seed 002 Table I.",
                   float_format="{:.4g}", index=False)
+    paper_rank = ranking({c: D.TABLE_I[c][1] for c in configurations})
+    lines = [f"- Ranking by jump height, seed 002: {' > '.join(f'No. {c}' for c in paper_rank)}."]
     for lm in ("prbm", "cb"):
         if f"{lm} jump [mm]" in t1:
-            rank = t1.sort_values(f"{lm} jump [mm]", ascending=False)["configuration"].tolist()
-            rep.add_text(f"- Ranking by jump height ({lm}): {' > '.join(f'No. {c}' for c in rank)} "
-                         "(seed 002: No. 3 > No. 4 > No. 1 > No. 2).")
+            rank = ranking(dict(zip(t1["configuration"], t1[f"{lm} jump [mm]"], strict=True)))
+            lines.append(f"- Ranking by jump height, proleg {lm}: {' > '.join(f'No. {c}' for c in rank)}"
+                         f" ({'the same' if rank == paper_rank else 'not the same'}).")
+    flagged = tab[tab["> 510 MPa"]]
+    lines.append(f"- Over 510 MPa up to take-off: {len(flagged)} of {len(tab)} variants"
+                 + (": " + ", ".join(f"No. {r['configuration']} case {r['link case']} {r['link model']}" for _, r in flagged.iterrows()) if len(flagged) else "") + ".")
+    rep.add_text("\n".join(lines))
     rep.add_heading("All variants")
     rep.add_table(tab, "Every run (PRBM for all cases, CB for case 2). '> 510 MPa' flags the stress up to take-off.",
                   float_format="{:.4g}", index=False)
@@ -345,6 +367,7 @@ def run_study(out_dir="results/flegx-study", progress: bool = True, workers: int
     rep.add_figure(fig, "PRBM link: jump height and stress up to take-off per configuration and link case (red band: 510-530 MPa).")
     rep.add_heading("Model")
     rep.add_parameters(D.sources() + _law_rows(), "Parameters and sources (MODEL_DATA §3).")
-    rep.add_key_values({"variants": len(outs), "total wall time [s]": f"{time.perf_counter() - wall0:.1f}",
+    rep.add_key_values({"variants": len(tab), "total wall time [s]": f"{wall:.1f}", "CPU time, all processes [s]": f"{cpu:.1f}",
+                        "load average at start / end (1 min)": f"{load0[0]:.1f} / {os.getloadavg()[0]:.1f}",
                         "output folder": str(out)}, "Run")
     return rep.save(out / "flegx_study_report.html")
