@@ -260,6 +260,12 @@ def test_model_structure_and_mass_split():
     assert m4.flegx.total_mass == pytest.approx(7.97 + MAT.rho * (0.3 * 0.05 - 0.25 * 0.07) * 0.003, rel=1e-12)
     assert {"tendon_a", "tendon_b", "knee_wheel"} <= {p.name for p in m4.parts}
     assert "knee_wheel" not in {p.name for p in flegx(configuration=1).parts}
+    for c in (1, 4):  # the worm sliders' mass comes out of their housings: same total and centre of mass
+        ideal, worm = (flegx(configuration=c, link_model="rigid", gears=g) for g in ("ideal", "worm"))
+        com = [sum(p.mass * np.asarray(p.position) for p in m.parts) / sum(p.mass for p in m.parts) for m in (ideal, worm)]
+        assert sum(p.mass for p in worm.parts) == pytest.approx(D.TABLE_I[c][0], rel=1e-12)
+        assert np.allclose(com[0], com[1], atol=1e-12)
+        assert {"hip_worm", "knee_worm"} <= {p.name for p in worm.parts}
     del s
 
 

@@ -278,6 +278,8 @@ def flegx(
     R1 = np.column_stack([np.cross(_Y, u1), _Y, u1])  # z along the leg
     r_t = 0.5 * D.TUBE_NO4["outer"]
     pts = [(up["structure"], 0.5), *([(D.MOTOR_UNIT_MASS, up["motor_at"])] * up["motors"])]
+    if m_worm and not tendon:  # the knee worm slider (at the knee motor) carries that much of the motor unit
+        pts[-1] = (D.MOTOR_UNIT_MASS - m_worm, up["motor_at"])
     com_s = sum(m * s for m, s in pts) / m_upper
     Jzz = up["structure"] * r_t**2 + sum(m * 0.04**2 / 2 for m, _ in pts[1:])
     Jxx = up["structure"] * (D.HIP_KNEE**2 / 12 + r_t**2 / 2) + sum(m * ((s - com_s) * D.HIP_KNEE) ** 2 for m, s in pts)
@@ -326,7 +328,7 @@ def flegx(
         if tendon:
             add_worm_drive(model, "knee", "knee_wheel", wheel, guide, O, worm, m_worm)
         else:
-            add_worm_drive(model, "knee", "knee", flange, upper, K, worm, m_worm)
+            add_worm_drive(model, "knee", "knee", flange, upper, O + up["motor_at"] * D.HIP_KNEE * u1, worm, m_worm)
     masses = {"guide": m_guide, "upper_leg": m_upper, "knee_flange": D.FLANGE_MASS, "knee_wheel": m_wheel,
               "tendons": 2 * m_tendon if tendon else 0.0, "strip": m_strip, "worms": 2 * m_worm}
     total = sum(masses.values())

@@ -48,7 +48,11 @@ Jump metrics
   clamped end (CB: modal deformation of the tip node; PRBM: γ L sin Θ; rigid: 0); the series
   ``tip_displacement`` is signed along the strip's thickness axis u2 × y (u2 from knee to foot).
 - ``peak_hip_torque``/``peak_knee_torque`` [N m]: at the joint (wheel side) and, as
-  ``*_worm``, at the worm (motor side) with :func:`worm_torques` for the model's ``gears``.
+  ``*_worm``, at the worm (motor side): the motor's torque of the worm dynamics
+  (``gears="worm"``, :func:`worm_drive_outputs`) or the wheel torque / 9.67 (ideal).
+- ``motor_energy`` [J] = ∫ (|P_hip| + |P_knee|) dt of the motors' power, ``motor_work_positive``
+  [J] = ∫ max(P, 0) dt (the energy drawn without regeneration), ``mesh_loss_energy`` [J] the
+  worm meshes' friction loss.
 """
 
 from __future__ import annotations
@@ -347,6 +351,7 @@ def jump_metrics(res, model, law: MotionLaw) -> tuple[dict, dict]:
         peak_hip_torque_worm=float(np.max(np.abs(hip_w["worm_torque"]))),
         peak_knee_torque_worm=float(np.max(np.abs(knee_w["worm_torque"]))),
         motor_energy=float(np.trapezoid(np.abs(hip_w["power_in"]) + np.abs(knee_w["power_in"]), t)),
+        motor_work_positive=float(np.trapezoid(np.clip(hip_w["power_in"], 0, None) + np.clip(knee_w["power_in"], 0, None), t)),
         mesh_loss_energy=float(np.trapezoid(hip_w["mesh_loss"] + knee_w["mesh_loss"], t)),
         peak_ground_force=float(np.max(N)), steps=res.stats["steps"],
     )
