@@ -189,6 +189,23 @@ def test_worm_power_balance_over_a_jump(rigid_jump):
     assert m["peak_hip_torque_worm"] > 1.3 * m["peak_hip_torque"] / 9.67  # worse than ideal (1/η = 1.7 at the peak)
 
 
+def test_worm_mesh_efficiency_is_eq16_while_sliding(rigid_jump):
+    """Where the worm slides fast (|v_s| > v_dynamic, μ = 0.13) and the motor drives (P_in, P_out
+    > 0), the dynamic mesh's instantaneous efficiency P_out / P_in is Eq. 16's η(0.13) = 0.606:
+    median within 2 % (the spread: mesh spring/damper power and the rotor's inertia)."""
+    from proleg.robots.flegx_jump import worm_drive_outputs
+
+    wg = WormGear(**D.WORM)
+    eta = []
+    for d in ("hip", "knee"):
+        o = worm_drive_outputs(rigid_jump.result, rigid_jump.model, d)
+        sel = (np.abs(o["sliding_speed"]) > D.WORM_V_DYNAMIC) & np.isfinite(o["efficiency"])
+        eta.append(o["efficiency"][sel])
+    eta = np.concatenate(eta)
+    assert eta.size > 50
+    assert np.median(eta) == pytest.approx(wg.efficiency(D.WORM_FRICTION_DYNAMIC), rel=2e-2)
+
+
 def _worm_and_wheel(f, J=0.01, load=-5.0):
     """A wheel (inertia J [kg m²] about y, constant load torque [N m]) meshed with a free FLEGX
     worm (no motor torque): back-driven or held by the worm's friction f."""

@@ -39,7 +39,7 @@ from .flegx_jump import MotionLaw, _add_motions, jump_metrics
 __all__ = ["STUDY_T_AFTER", "study_groups", "group_study", "run_table_i"]
 
 #: simulated time after the end of the push [s]: the apex of every variant falls inside it
-#: (measured apex 0.0-0.05 s after the push end; the landing is not needed for Table I)
+#: (measured: the apex falls 0.03 s before to 0.05 s after the push end; the landing is not needed for Table I)
 STUDY_T_AFTER = 0.2
 #: the metrics kept as study outputs (flegx_jump docstring)
 OUTPUTS = ("jump_height", "flight_rise", "foot_clearance", "take_off_time", "apex_time", "max_stress_takeoff",
