@@ -184,13 +184,14 @@ def run_table_i(store_dir, configurations=(1, 2, 3, 4), cases=(1, 2, 3, 4, 5, 6)
     return tab.sort_values(["link model", "configuration", "link_case"], ignore_index=True)
 
 
-class _bar:
+def _bar(show: bool, total: int):
+    return _Bar(total) if show else None
+
+
+class _Bar:
     """rich progress over the variants of all groups, advanced as each group's Study returns."""
 
-    def __new__(cls, show, total):
-        return super().__new__(cls) if show else None
-
-    def __init__(self, show, total):
+    def __init__(self, total):
         from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
         self.p = Progress(TextColumn("[bold]flegx-study[/] {task.fields[last]}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
