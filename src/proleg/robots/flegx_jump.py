@@ -12,14 +12,17 @@ with t_s = ``t_settle`` (standing still on the ground first), t_p = t_s + T_squa
 t_r = t_p + T_push + ``retract_delay``. Defaults: stand (−30°, 60°), squat (−50°, 100°),
 extend (−20°, 40°), land = stand; T_squat = 0.8 s (seed 002: "squats down in few seconds";
 shortened to keep runs short, the squat is quasi-static either way), T_push = 0.30 s. With the
-No. 4 leg and the 250×70×3 CB link this gives a 91 mm jump, 432 MPa at take-off and
-506 MPa at landing, 35 mm tip displacement (PRBM link: 103 mm; the rigid link does not take off) (the paper: 104 mm / 531 MPa, Table I; 447 MPa
-and 32 mm for its 50 mm machinery jump, Fig. 4). The push is close to the leg's bounce
-period on the strip (≈ 0.2-0.3 s), so the flexible link stores and returns energy: shorter
-pushes jump much higher on the flexible link than on the rigid one.
+No. 4 leg and the 250×70×3 CB link this gives a 47.5 mm jump (the guide then rises 91 mm from
+take-off and the foot clears the ground by 18 mm), 432 MPa at take-off and 506 MPa at landing,
+35 mm tip displacement; PRBM link: 73.5 mm, 438 MPa; the rigid link does not take off
+(measured 2026-11-25, ``proleg run flegx-jump``). The paper: LFM 50 mm vs PRBM 60 mm (§III.A),
+Table I No. 4: 104 mm / 531 MPa; its machinery jump (Fig. 4): 50 mm, 447 MPa, 32 mm.
+The push is close to the leg's bounce period on the strip (≈ 0.2-0.3 s), so the flexible link
+stores and returns energy: shorter pushes jump much higher on the flexible link than on the
+rigid one. flegx-machinery uses T_push = 0.35 s (a ≈ 50 mm jump with worm gears).
 The motions are imposed on the hip joint and on the knee wheel (No. 4: θ1 + θ2 through the
 tendon parallelogram) or the knee joint (No. 1-3), as the paper imposes motion laws "as a
-function of time" on the hip and knee.
+function of time" on the hip and knee; with ``gears="worm"`` on the worms (s = n r1 Δθ).
 
 Jump metrics
 ------------
@@ -30,8 +33,9 @@ Jump metrics
   It is what the guide's linear encoder reads, and equals the foot's clearance above the
   ground when the leg is back in its standing pose at the apex (the landing pose is the
   standing one). It needs no take-off instant, so a touch-and-go of the still-extending leg
-  before the main flight, or the hops after the landing, cannot change it by a jump; 0 if the
-  foot never leaves the ground. Seed 002 does not say which height it measured; the other
+  before the main flight, or the hops after the landing (lower), do not change it; 0 if the
+  foot never leaves the ground (the one place where it jumps: a leg that leaves the ground
+  for an instant at full extension scores its extension). Seed 002 does not say which height it measured; the other
   two readings are reported beside it: ``foot_clearance`` (highest point of the foot
   cylinder's lowest point above the ground during the jump's flight; smaller when the leg
   is still extended at the apex) and ``flight_rise`` (the guide's rise from the flight's
