@@ -368,8 +368,11 @@ def run_study(out_dir="results/flegx-study", progress: bool = True, workers: int
                          "heights at about equal stress, and ours at an equal law. With imposed joint motions a rigid leg's take-off "
                          "speed does not depend on its mass; the configurations differ only through the strip's dynamics (a "
                          "heavier leg bends the strip more and the push then lands elsewhere on its bounce period), and through "
-                         "the mass split, which Table I does not print (assumed: flegx_data). bench/flegx.py --equal-stress ranks "
-                         "the configurations at equal stress (bench/results/flegx_equal_stress.md).")
+                         "the mass split, which Table I does not print (assumed: flegx_data). At equal stress the paper's ranking "
+                         "comes back but for its top two: bench/flegx.py --equal-stress (PRBM, case 2, pushes 0.22/0.26/0.30 s, "
+                         "measured 2026-11-25) gives at 520 MPa No. 4 144.5 mm > No. 3 136.2 mm > No. 1 120.0 mm > No. 2 (already "
+                         "585 MPa with the gentlest push, 106 mm; ≈ 52 mm at 520 MPa extrapolated); Table I: No. 3 108.1 > No. 4 "
+                         "104.1 > No. 1 70.9 > No. 2 59.8 mm (No. 3 and 4 within 4 % in the paper, 6 % here, swapped).")
             break
     flagged = tab[tab["> 510 MPa"]]
     lines.append(f"- Over 510 MPa up to take-off: {len(flagged)} of {len(tab)} variants"
