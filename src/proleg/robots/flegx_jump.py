@@ -19,7 +19,7 @@ take-off and the foot clears the ground by 18 mm), 432 MPa at take-off and 506 M
 Table I No. 4: 104 mm / 531 MPa; its machinery jump (Fig. 4): 50 mm, 447 MPa, 32 mm.
 The push is close to the leg's bounce period on the strip (≈ 0.2-0.3 s), so the flexible link
 stores and returns energy: shorter pushes jump much higher on the flexible link than on the
-rigid one. flegx-machinery uses T_push = 0.35 s (a ≈ 50 mm jump with worm gears).
+rigid one. flegx-machinery uses T_push = 0.32 s (a ≈ 50 mm jump with worm gears).
 The motions are imposed on the hip joint and on the knee wheel (No. 4: θ1 + θ2 through the
 tendon parallelogram) or the knee joint (No. 1-3), as the paper imposes motion laws "as a
 function of time" on the hip and knee; with ``gears="worm"`` on the worms (s = n r1 Δθ).
