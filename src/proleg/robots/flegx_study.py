@@ -36,7 +36,7 @@ from . import flegx_data as D
 from .flegx import flegx
 from .flegx_jump import MotionLaw, _add_motions, jump_metrics
 
-__all__ = ["STUDY_T_AFTER", "study_groups", "group_study", "run_table_i"]
+__all__ = ["STUDY_T_AFTER", "study_groups", "group_study", "run_table_i", "ranking"]
 
 #: simulated time after the end of the push [s]: the apex of every variant falls inside it
 #: (measured: the apex falls 0.03 s before to 0.05 s after the push end; the landing is not needed for Table I)
@@ -165,15 +165,18 @@ def run_table_i(store_dir, configurations=(1, 2, 3, 4), cases=(1, 2, 3, 4, 5, 6)
         if workers == 1:
             for g in groups:
                 frames[g["name"]] = _run_group(g, str(store_dir), executor, False, law)
-                bar and bar.advance(g)
+                if bar:
+                    bar.advance(g)
         else:
             with cf.ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as ex:
                 futs = {ex.submit(_run_group, g, str(store_dir), executor, False, law): g for g in groups}
                 for f in cf.as_completed(futs):
                     frames[futs[f]["name"]] = f.result()
-                    bar and bar.advance(futs[f])
+                    if bar:
+                        bar.advance(futs[f])
     finally:
-        bar and bar.stop()
+        if bar:
+            bar.stop()
     tab = pd.concat([frames[g["name"]] for g in groups], ignore_index=True)
     tab[["configuration", "link_case"]] = tab[["configuration", "link_case"]].astype(int)
     tab["> 510 MPa"] = tab["max_stress_takeoff"] > D.ULTIMATE_STRENGTH[0]
