@@ -179,8 +179,9 @@ def flegx(
         strip (L, W, t) of seed 002 §II; ignored when ``link_geometry`` is given.
     link_model : {"rigid", "prbm", "cb"}
     gears : {"ideal", "worm"}
-        how :func:`worm_torques` turns wheel torques into worm torques (the dynamics, driven by
-        imposed wheel angles, are the same).
+        "ideal": the motion laws drive the wheels (lossless, rigid); "worm": worm sliders and
+        compliant meshes with friction in the dynamics (:func:`add_worm_drive`), the laws drive
+        the worms.
     link_geometry : (L, W, t) [m], optional
         a strip other than the six cases.
     E_scale : float [-]

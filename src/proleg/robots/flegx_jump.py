@@ -147,7 +147,9 @@ def worm_friction(wheel_speed, static=D.WORM_FRICTION_STATIC, dynamic=D.WORM_FRI
 
 
 def worm_torques(wheel_torque, wheel_speed, gears="worm", friction=None, worm=None, speed_eps=1e-3):
-    """Torque and power at the worm for a given torque and speed at the wheel (seed 002 Eqs. 16-17).
+    """Torque and power at the worm for a given torque and speed at the wheel (seed 002 Eqs. 16-17),
+    quasi-statically (no mesh dynamics): the ideal-gear reporting of :func:`jump_metrics`, and the
+    closed form the dynamic worm mesh (``gears="worm"``) is tested against.
 
     Parameters
     ----------
