@@ -13,6 +13,14 @@ model's compilation; the persistent XLA cache may shorten it: ``--no-cache`` tur
 
     python bench/flegx.py                 # rigid, prbm, cb: table + bench/results/flegx.md/.json
     python bench/flegx.py --models cb
+
+Equal-stress ranking (``--equal-stress``): Table I's stresses all lie in 514-531 MPa, as if each
+configuration's motion law had been pushed to the stress limit; with one common law the
+configurations end at very different stresses. This runs the PRBM link (case 2) of No. 1-4 with
+the push durations ``--pushes`` (shorter = harder), interpolates each configuration's jump height
+at ``--stress`` MPa (the stress up to take-off) and ranks them (bench/results/flegx_equal_stress.md).
+
+    python bench/flegx.py --equal-stress --pushes 0.22 0.26 0.30
 """
 
 from __future__ import annotations
@@ -44,11 +52,54 @@ print(json.dumps({"model": %r, "first [s]": first, "sim [s]": j.wall_s, "rerun [
 """
 
 
+def equal_stress(pushes, stress_mpa, link_model="prbm"):
+    """Jump height of No. 1-4 (link case 2) at equal stress up to take-off (module docstring)."""
+    import numpy as np
+    import pandas as pd
+
+    sys.path.insert(0, str(HERE.parent / "src"))
+    from proleg.robots import flegx_data as D
+    from proleg.robots.flegx_jump import MotionLaw
+    from proleg.robots.flegx_study import STUDY_T_AFTER, ranking, run_table_i
+
+    t0 = time.perf_counter()
+    rows = []
+    for tp in pushes:
+        law = MotionLaw(t_push=float(tp), t_after=STUDY_T_AFTER)
+        tab = run_table_i(HERE / "results" / "flegx_equal_stress" / f"push_{tp:g}", (1, 2, 3, 4), (2,),
+                          2 if link_model == "cb" else None, progress=False, law=law)
+        tab = tab[tab["link model"] == link_model]
+        for r in tab.itertuples():
+            rows.append({"push [s]": tp, "configuration": r.configuration, "jump [mm]": r.jump_height * 1e3,
+                         "stress take-off [MPa]": r.max_stress_takeoff / 1e6})
+    df = pd.DataFrame(rows)
+    at = {}
+    for c in (1, 2, 3, 4):
+        s = df[df["configuration"] == c].sort_values("stress take-off [MPa]")
+        x, y = s["stress take-off [MPa]"].to_numpy(), s["jump [mm]"].to_numpy()
+        at[c] = float(np.interp(stress_mpa, x, y, left=np.nan, right=np.nan))
+    lines = [df.to_string(index=False, float_format="{:.4g}".format), "",
+             f"Jump height at {stress_mpa:g} MPa (linear interpolation; NaN: outside the sampled stresses): "
+             + ", ".join(f"No. {c}: {v:.1f} mm" for c, v in at.items()),
+             "Ranking at equal stress: " + " > ".join(f"No. {c}" for c in ranking(at))
+             + "; seed 002 Table I: " + " > ".join(f"No. {c}" for c in ranking({c: D.TABLE_I[c][1] for c in (1, 2, 3, 4)})),
+             f"\n{link_model} link, case 2; wall {time.perf_counter() - t0:.0f} s, load average {os.getloadavg()[0]:.1f}"]
+    text = "\n".join(lines)
+    (HERE / "results").mkdir(exist_ok=True)
+    (HERE / "results" / "flegx_equal_stress.md").write_text(text + "\n")
+    print(text)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--models", nargs="+", default=["rigid", "prbm", "cb"])
     ap.add_argument("--no-cache", action="store_true", help="PROLEG_CACHE_DIR='' (compile every time)")
+    ap.add_argument("--equal-stress", action="store_true", help="rank No. 1-4 at equal stress (module docstring)")
+    ap.add_argument("--pushes", nargs="+", type=float, default=[0.22, 0.26, 0.30])
+    ap.add_argument("--stress", type=float, default=520.0, help="[MPa] stress at which to compare (Table I: 514-531)")
     a = ap.parse_args(argv)
+    if a.equal_stress:
+        return equal_stress(a.pushes, a.stress)
     env = dict(os.environ)
     env["PYTHONPATH"] = str(HERE.parent / "src") + os.pathsep + env.get("PYTHONPATH", "")
     if a.no_cache:

@@ -22,7 +22,7 @@ import jax.numpy as jnp
 
 from ..fn import step
 
-__all__ = ["GearTrain", "output_torque", "input_torque", "WormGear"]
+__all__ = ["GearTrain", "output_torque", "input_torque", "WormGear", "worm_mesh", "coulomb_coefficient"]
 
 
 def _forward_weight(p, speed_eps):
@@ -216,3 +216,65 @@ class WormGear:
                 "that. Use a lower f, or model the lock with a constraint/stiction element."
             )
         return GearTrain(self.ratio, float(self.efficiency(f)), float(self.back_efficiency(f)))
+
+
+def coulomb_coefficient(v, f_static, f_dynamic, v_static, v_dynamic):
+    """Signed, regularised Coulomb coefficient μ(v) [-] (the Adams friction law, cubic STEPs):
+    μ = STEP(v, −v_s, −f_s, v_s, f_s) for |v| ≤ v_s, then sign(v)·STEP(|v|, v_s, f_s, v_d, f_d)
+    up to v_d and f_d sign(v) beyond. ``v_static`` < ``v_dynamic`` [m/s], traceable."""
+    a = jnp.abs(v)
+    inner = step(v, -v_static, -f_static, v_static, f_static)
+    outer = jnp.sign(v) * step(a, v_static, f_static, v_dynamic, f_dynamic)
+    return jnp.where(a <= v_static, inner, outer)
+
+
+def worm_mesh(worm: WormGear, s, s_dot, phi, phi_dot, stiffness, damping, f_static, f_dynamic, v_static, v_dynamic):
+    """Compliant worm-wheel mesh with sliding friction: loads on the worm and the wheel.
+
+    Kinematics. ``s`` [m] is the worm's rotation as arc length on its pitch circle (s = r1 φ_w),
+    ``phi`` [rad] the wheel's rotation; both from the pose where the mesh is unloaded, in the
+    senses where a positive worm turn drives the wheel positive (rigid mesh: s = n r1 φ). With
+    the lead angle γ and the pitch radii r1 (worm), r2 (wheel), the tooth approach along the
+    thread normal in the pitch plane and the sliding speed along the thread are::
+
+        δ = s sin γ − r2 φ cos γ,          v_s = ṡ cos γ + r2 φ̇ sin γ
+
+    Loads. Pitch-plane normal force P = k δ + c δ̇ (signed: which flank), tooth normal force
+    W = |P| / cos θ_n (seed 002 Eq. 17 for θ_n), friction μ(v_s) W against the sliding with
+    μ = :func:`coulomb_coefficient` (static f_s below v_static, dynamic f_d above v_dynamic)::
+
+        torque on the wheel      T = r2 (P cos γ − μ W sin γ)
+        force on the worm        F = −(P sin γ + μ W cos γ)     (tangential at r1; torque r1 F)
+
+    The mesh's power is F ṡ + T φ̇ = −P δ̇ − μ W v_s: the spring-damper's power and the friction
+    loss μ W v_s ≥ 0. Steady sliding (δ̇ = 0) with the worm driving gives T φ̇ = η · (−F ṡ) with
+    η of Eq. 16 (:meth:`WormGear.efficiency`); with the wheel driving, η_back. With the worm
+    free (F = 0) the wheel is held when f_s ≥ cos θ_n tan γ (self-locking): the regularised
+    friction then lets it creep at |v_s| < v_static only.
+
+    Parameters
+    ----------
+    worm : WormGear
+    s, s_dot : [m], [m/s];  phi, phi_dot : [rad], [rad/s]   (traceable arrays)
+    stiffness : [N/m], damping : [N s/m]   of the pitch-plane normal (torsional stiffness at the
+        wheel k (r2 cos γ)²)
+    f_static, f_dynamic : [-];  v_static, v_dynamic : [m/s]   friction law
+
+    Returns
+    -------
+    dict: ``wheel_torque`` T [N m], ``worm_force`` F [N], ``normal_force`` W [N],
+    ``pitch_force`` P [N], ``sliding_speed`` v_s [m/s], ``mu`` [-], ``friction_power`` μ W v_s
+    [W], ``approach`` δ [m], ``approach_rate`` δ̇ [m/s], ``spring_energy`` k δ²/2 [J].
+    """
+    r1, r2 = 0.5 * worm.worm_pitch_diameter, 0.5 * worm.wheel_pitch_diameter
+    sg, cg = math.sin(worm.lead_angle), math.cos(worm.lead_angle)
+    cn = math.cos(worm.normal_pressure_angle)
+    delta = s * sg - r2 * phi * cg
+    ddelta = s_dot * sg - r2 * phi_dot * cg
+    vs = s_dot * cg + r2 * phi_dot * sg
+    P = stiffness * delta + damping * ddelta
+    W = jnp.abs(P) / cn
+    mu = coulomb_coefficient(vs, f_static, f_dynamic, v_static, v_dynamic)
+    return dict(wheel_torque=r2 * (P * cg - mu * W * sg), worm_force=-(P * sg + mu * W * cg), normal_force=W, pitch_force=P,
+                sliding_speed=vs, mu=mu, friction_power=mu * W * vs, approach=delta, approach_rate=ddelta,
+                spring_energy=0.5 * stiffness * delta**2)

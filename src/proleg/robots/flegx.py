@@ -33,15 +33,22 @@ Bodies (seed 002 §II, Fig. 1; sagittal plane x-z, pins along +y; angles in ``fl
     surfaces). A beam, not the scikit-fem P2-tet solid: the modal body needs 6-DOF interface
     nodes, which the tet mesh lacks (see the report of issue 16).
 
+- ``gears="worm"``: each drive is a worm set in the dynamics (:func:`add_worm_drive`): the worm's
+  rotation is a slider ``<drive>_worm`` on a :class:`~proleg.Prismatic` to the housing (the
+  guide; the upper leg for the knee of No. 1-3) whose travel is the worm's pitch-circle arc
+  s = r1 φ_w and whose mass is the rotor inertia J/r1² (taken from the housing's mass, so the
+  totals stay Table I's), and a compliant mesh with sliding friction between it and the wheel
+  (:func:`proleg.drives.gears.worm_mesh`: Eqs. 16-17 with f = 0.14 static / 0.13 dynamic as the
+  model variables ``worm_f_static``/``worm_f_dynamic``): back-drivable or self-locking as the
+  friction gives. The motion laws then drive the worms (s = n r1 Δθ); ``gears="ideal"`` drives
+  the wheels directly (a lossless, rigid transmission).
 - Foot: a massless rigid cylinder (axis y, radius ``FOOT_RADIUS``) fixed to the strip's free
   end (CB: its lower interface node), :class:`~proleg.CylinderContact` with the IMPACT law
   against the ground z = 0, frictionless by default (the guide carries the horizontal loads).
 
 The modelled (initial) pose is the standing pose (θ1, θ2) = ``stand`` with the foot's lowest
 point ``clearance`` above the ground. Joint motions (:func:`proleg.robots.flegx_jump`) are
-imposed relative to this pose. Worm gears act on the outputs only: the motions impose the
-wheel angles, the reaction torque is the torque at the wheel, and :func:`worm_torques` turns
-it into the torque at the worm with Eqs. 16-17 (``gears="worm"``) or the ideal ratio.
+imposed relative to this pose, on the wheels (ideal gears) or on the worms (worm gears).
 """
 
 from __future__ import annotations
@@ -58,7 +65,7 @@ from ..model.model import Model
 from ..units import deg
 from . import flegx_data as D
 
-__all__ = ["flegx", "FlegxInfo", "leg_geometry", "add_link", "strip_reduced", "LINK_MODELS", "GEARS"]
+__all__ = ["flegx", "FlegxInfo", "leg_geometry", "add_link", "add_worm_drive", "strip_reduced", "LINK_MODELS", "GEARS"]
 
 LINK_MODELS = ("rigid", "prbm", "cb")
 GEARS = ("ideal", "worm")
@@ -172,8 +179,9 @@ def flegx(
         strip (L, W, t) of seed 002 §II; ignored when ``link_geometry`` is given.
     link_model : {"rigid", "prbm", "cb"}
     gears : {"ideal", "worm"}
-        how :func:`worm_torques` turns wheel torques into worm torques (the dynamics, driven by
-        imposed wheel angles, are the same).
+        "ideal": the motion laws drive the wheels (lossless, rigid); "worm": worm sliders and
+        compliant meshes with friction in the dynamics (:func:`add_worm_drive`), the laws drive
+        the worms.
     link_geometry : (L, W, t) [m], optional
         a strip other than the six cases.
     E_scale : float [-]
@@ -248,6 +256,15 @@ def flegx(
     m_guide = D.TABLE_I[configuration][0] - others_ref if guide_mass is None else float(guide_mass)
     if not (math.isfinite(m_guide) and m_guide > 0):
         raise ModelError(f"flegx: guide_mass must be > 0 kg, got {m_guide!r}.")
+    worm = None
+    m_worm = 0.0
+    if gears == "worm":  # the worm sliders' mass comes out of their housings (module docstring)
+        from ..drives.gears import WormGear
+
+        worm = WormGear(**D.WORM)
+        m_worm = D.WORM_INERTIA / (0.5 * worm.worm_pitch_diameter) ** 2
+        m_guide -= m_worm * (2 if tendon else 1)
+        m_upper -= 0.0 if tendon else m_worm
 
     z_hip = clearance + D.FOOT_RADIUS - (leg_geometry(th1, th2, 0.0, L)["F"][2])
     g = leg_geometry(th1, th2, z_hip, L)
@@ -262,6 +279,8 @@ def flegx(
     R1 = np.column_stack([np.cross(_Y, u1), _Y, u1])  # z along the leg
     r_t = 0.5 * D.TUBE_NO4["outer"]
     pts = [(up["structure"], 0.5), *([(D.MOTOR_UNIT_MASS, up["motor_at"])] * up["motors"])]
+    if m_worm and not tendon:  # the knee worm slider (at the knee motor) carries that much of the motor unit
+        pts[-1] = (D.MOTOR_UNIT_MASS - m_worm, up["motor_at"])
     com_s = sum(m * s for m, s in pts) / m_upper
     Jzz = up["structure"] * r_t**2 + sum(m * 0.04**2 / 2 for m, _ in pts[1:])
     Jxx = up["structure"] * (D.HIP_KNEE**2 / 12 + r_t**2 / 2) + sum(m * ((s - com_s) * D.HIP_KNEE) ** 2 for m, s in pts)
@@ -303,8 +322,16 @@ def flegx(
             "foot", foot, radius=D.FOOT_RADIUS, stiffness=contact_stiffness, exponent=D.CONTACT_EXPONENT,
             damping=contact_damping, penetration=D.CONTACT_PENETRATION, mu_static=mu, mu_dynamic=mu))
 
+    if worm is not None:
+        model.add_variable("worm_f_static", D.WORM_FRICTION_STATIC, "-", "worm mesh static friction coefficient (seed 002 §IV)")
+        model.add_variable("worm_f_dynamic", D.WORM_FRICTION_DYNAMIC, "-", "worm mesh dynamic friction coefficient (seed 002 §IV)")
+        add_worm_drive(model, "hip", "hip", upper, guide, O, worm, m_worm)
+        if tendon:
+            add_worm_drive(model, "knee", "knee_wheel", wheel, guide, O, worm, m_worm)
+        else:
+            add_worm_drive(model, "knee", "knee", flange, upper, O + up["motor_at"] * D.HIP_KNEE * u1, worm, m_worm)
     masses = {"guide": m_guide, "upper_leg": m_upper, "knee_flange": D.FLANGE_MASS, "knee_wheel": m_wheel,
-              "tendons": 2 * m_tendon if tendon else 0.0, "strip": m_strip}
+              "tendons": 2 * m_tendon if tendon else 0.0, "strip": m_strip, "worms": 2 * m_worm}
     total = sum(masses.values())
     params = D.sources() + [
         ("configuration", configuration, "-", "seed 002 §IV"),
@@ -323,6 +350,47 @@ def flegx(
         stand=(th1, th2), hip_height=float(z_hip), masses=masses, total_mass=total,
         knee_drive=up["knee_drive"], prbm=prbm, cb=cb, EI=EI, parameters=params)
     return model
+
+
+def add_worm_drive(model, name, joint, wheel, housing, at, worm, mass, *, stiffness=D.WORM_MESH_STIFFNESS,
+                   damping=D.WORM_MESH_DAMPING, v_static=D.WORM_V_STATIC, v_dynamic=D.WORM_V_DYNAMIC):
+    """A worm set driving the revolute ``joint`` (its part I ``wheel`` turns about z_J relative to
+    ``housing``, its part J): the worm slider ``<name>_worm`` (mass ``mass`` [kg]) on a Prismatic
+    to ``housing`` at ``at`` along ground x, and the :func:`~proleg.drives.gears.worm_mesh` loads
+    between them (slider force F along the axis, reaction on the housing; wheel torque T about
+    z_J, reaction on the housing), with the model variables ``worm_f_static``/``worm_f_dynamic``.
+    ``stiffness`` [N m/rad] and ``damping`` [N m s/rad] are referred to the wheel."""
+    import jax.numpy as jnp
+
+    from ..drives.gears import worm_mesh
+    from ..model.forces import Force, Torque
+
+    r2c = 0.5 * worm.wheel_pitch_diameter * math.cos(worm.lead_angle)
+    k, c = stiffness / r2c**2, damping / r2c**2
+    slider = model.add_part(f"{name}_worm", mass, [1e-6] * 3, at)
+    pj = model.add_joint(Prismatic(f"{name}_worm", slider, housing, at=at, axis=(1.0, 0.0, 0.0)))
+    wj = next(j for j in model.joints if j.name == joint)
+
+    def mesh(state):
+        zs = state.marker_orientation(pj.marker_j)[:, 2]
+        sd = jnp.dot(zs, state.marker_velocity(pj.marker_i) - state.marker_velocity(pj.marker_j))
+        out = worm_mesh(worm, state.joint_translation(pj), sd, state.joint_angle(wj), state.joint_rate(wj), k, c,
+                        state.variable("worm_f_static"), state.variable("worm_f_dynamic"), v_static, v_dynamic)
+        return out, zs, state.marker_orientation(wj.marker_j)[:, 2]
+
+    def on_worm(t, state):
+        out, zs, _ = mesh(state)
+        return out["worm_force"] * zs
+
+    def on_wheel(t, state):
+        out, _, zw = mesh(state)
+        return out["wheel_torque"] * zw
+
+    model.add_force(Force(f"{name}_mesh.worm", slider, on_worm))
+    model.add_force(Force(f"{name}_mesh.worm_housing", housing, lambda t, state: -on_worm(t, state), at=at))
+    model.add_force(Torque(f"{name}_mesh.wheel", wheel, on_wheel))
+    model.add_force(Torque(f"{name}_mesh.wheel_housing", housing, lambda t, state: -on_wheel(t, state)))
+    return dict(slider=slider, joint=pj, stiffness=k, damping=c, v_static=v_static, v_dynamic=v_dynamic)
 
 
 def add_link(model, parent, at, direction, link_model, geometry, mat, *, base_material=None, cb_elements=10, cb_modes=3,

@@ -115,6 +115,16 @@ WORM_FRICTION_DYNAMIC = 0.13  # seed 002 §IV
 WORM_OUTPUT_TORQUE_LIMIT = 77.0  # [N m] with mineral grease, seed 002 §III.C
 #: wheel speed [rad/s] over which the friction coefficient passes from static to dynamic, **assumed**
 WORM_FRICTION_TRANSITION = 0.05
+#: Dynamic worm mesh (``gears="worm"``, :func:`proleg.drives.gears.worm_mesh`), all **assumed**
+#: (seed 002 §IV: "a lack of information in the literature for parameters like the stiffness or
+#: the dynamic friction transition velocity"): torsional mesh stiffness and damping referred to
+#: the wheel, sliding speeds of the static → dynamic friction transition, and the worm-side
+#: rotor inertia (BLDC rotor + gearhead + worm shaft, referred to the worm).
+WORM_MESH_STIFFNESS = 2.0e4  # [N m/rad] at the wheel (3 mrad at 60 N m)
+WORM_MESH_DAMPING = 20.0  # [N m s/rad] at the wheel (ζ ≈ 0.2 against the leg about the hip)
+WORM_V_STATIC = 2e-3  # [m/s] sliding speed below which μ is the static f (regularised stiction)
+WORM_V_DYNAMIC = 2e-2  # [m/s] sliding speed above which μ is the dynamic f
+WORM_INERTIA = 1e-4  # [kg m²] rotor inertia at the worm
 
 # ------------------------------------------------------------------------------------------
 # Joint ranges (**assumed**: the strip must not fold onto the upper leg)
@@ -167,6 +177,8 @@ def sources() -> list[tuple]:
         ("worm set", "3 starts, 29 teeth, m = 2.5 mm, 15°, a = 53 mm (9.67:1)", "-", "seed 002 §II, §III.C"),
         ("worm friction static / dynamic", [WORM_FRICTION_STATIC, WORM_FRICTION_DYNAMIC], "-", "seed 002 §IV (η ≈ 0.60)"),
         ("wheel torque rating (grease)", WORM_OUTPUT_TORQUE_LIMIT, "N m", "seed 002 §III.C"),
+        ("worm mesh k, c at the wheel; v_static, v_dynamic; rotor J", [WORM_MESH_STIFFNESS, WORM_MESH_DAMPING, WORM_V_STATIC,
+         WORM_V_DYNAMIC, WORM_INERTIA], "N m/rad, N m s/rad, m/s, m/s, kg m²", "assumed (seed 002 §IV: uncertain)"),
         ("foot cylinder radius", FOOT_RADIUS, "m", "assumed (massless, seed 002 §III.B)"),
         ("IMPACT k, e, c, d", [CONTACT_STIFFNESS, CONTACT_EXPONENT, CONTACT_DAMPING, CONTACT_PENETRATION],
          "N/m^e, -, N s/m, m", "assumed (IMPACT: seed 002 §III.B)"),

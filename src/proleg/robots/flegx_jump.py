@@ -12,27 +12,38 @@ with t_s = ``t_settle`` (standing still on the ground first), t_p = t_s + T_squa
 t_r = t_p + T_push + ``retract_delay``. Defaults: stand (−30°, 60°), squat (−50°, 100°),
 extend (−20°, 40°), land = stand; T_squat = 0.8 s (seed 002: "squats down in few seconds";
 shortened to keep runs short, the squat is quasi-static either way), T_push = 0.30 s. With the
-No. 4 leg and the 250×70×3 CB link this gives a 91 mm jump, 432 MPa at take-off and
-506 MPa at landing, 35 mm tip displacement (PRBM link: 103 mm; the rigid link does not take off) (the paper: 104 mm / 531 MPa, Table I; 447 MPa
-and 32 mm for its 50 mm machinery jump, Fig. 4). The push is close to the leg's bounce
-period on the strip (≈ 0.2-0.3 s), so the flexible link stores and returns energy: shorter
-pushes jump much higher on the flexible link than on the rigid one.
+No. 4 leg and the 250×70×3 CB link this gives a 47.5 mm jump (the guide then rises 91 mm from
+take-off and the foot clears the ground by 18 mm), 432 MPa at take-off and 506 MPa at landing,
+35 mm tip displacement; PRBM link: 73.5 mm, 438 MPa; the rigid link does not take off
+(measured 2026-11-25, ``proleg run flegx-jump``). The paper: LFM 50 mm vs PRBM 60 mm (§III.A),
+Table I No. 4: 104 mm / 531 MPa; its machinery jump (Fig. 4): 50 mm, 447 MPa, 32 mm.
+The push is close to the leg's bounce period on the strip (≈ 0.2-0.3 s), so the flexible link
+stores and returns energy: shorter pushes jump much higher on the flexible link than on the
+rigid one. flegx-machinery uses T_push = 0.32 s (a ≈ 50 mm jump with worm gears).
 The motions are imposed on the hip joint and on the knee wheel (No. 4: θ1 + θ2 through the
 tendon parallelogram) or the knee joint (No. 1-3), as the paper imposes motion laws "as a
-function of time" on the hip and knee.
+function of time" on the hip and knee; with ``gears="worm"`` on the worms (s = n r1 Δθ).
 
 Jump metrics
 ------------
-- ``take_off_time`` [s] and ``landing_time``: start and end (first and last-plus-one output
-  with zero foot normal force) of the flight that contains the guide's highest point after
-  the push starts (none: the leg did not jump, ``jump_height`` = 0): a brief
-  touch-and-go of the still-extending leg before the main flight, and the hops after the
-  landing (the strip springs back), are not the jump. ``flights`` counts all airborne phases.
-- ``jump_height`` [m]: the paper's "jumping height" is taken as the **guide's rise** from
-  take-off to the apex of the flight (the hip's ballistic rise, ≈ v²/2g with v the take-off
-  velocity; the usual jump height of jumping biomechanics). ``foot_clearance`` is the highest
-  position of the foot cylinder's lowest point above the ground during the flight (smaller:
-  the leg is still extending when the foot leaves the ground).
+- ``jump_height`` [m], the paper's "jumping height" (seed 002 §IV: "the maximum jumping height
+  reached"; Fig. 4: "a 50 mm jump"), taken as the **guide's rise at the apex above its standing
+  height**: the highest guide (hip) position while the foot is in the air after the push
+  starts, minus the guide's height standing still on the ground (at the end of ``t_settle``).
+  It is what the guide's linear encoder reads, and equals the foot's clearance above the
+  ground when the leg is back in its standing pose at the apex (the landing pose is the
+  standing one). It needs no take-off instant, so a touch-and-go of the still-extending leg
+  before the main flight, or the hops after the landing (lower), do not change it; 0 if the
+  foot never leaves the ground (the one place where it jumps: a leg that leaves the ground
+  for an instant at full extension scores its extension). Seed 002 does not say which height it measured; the other
+  two readings are reported beside it: ``foot_clearance`` (highest point of the foot
+  cylinder's lowest point above the ground during the jump's flight; smaller when the leg
+  is still extended at the apex) and ``flight_rise`` (the guide's rise from the flight's
+  take-off to its apex, ≈ v²/2g of the ballistic flight, larger: it counts the leg's
+  extension between standing and take-off).
+- ``take_off_time``, ``apex_time`` and ``landing_time`` [s]: the flight that contains that apex
+  (first sample with zero foot normal force, the apex, first sample in contact again; landing
+  NaN if the run ends in the air). ``flights`` counts all airborne phases after the push starts.
 - ``max_stress`` [Pa]: von Mises at the clamped end of the strip, over the whole run
   (take-off and landing; ``max_stress_takeoff`` up to take-off, Table I's phase). CB: stress
   recovery of the modal body (σ_xx at the root surfaces). Rigid and PRBM: from the clamp's
@@ -41,7 +52,11 @@ Jump metrics
   clamped end (CB: modal deformation of the tip node; PRBM: γ L sin Θ; rigid: 0); the series
   ``tip_displacement`` is signed along the strip's thickness axis u2 × y (u2 from knee to foot).
 - ``peak_hip_torque``/``peak_knee_torque`` [N m]: at the joint (wheel side) and, as
-  ``*_worm``, at the worm (motor side) with :func:`worm_torques` for the model's ``gears``.
+  ``*_worm``, at the worm (motor side): the motor's torque of the worm dynamics
+  (``gears="worm"``, :func:`worm_drive_outputs`) or the wheel torque / 9.67 (ideal).
+- ``motor_energy`` [J] = ∫ (|P_hip| + |P_knee|) dt of the motors' power, ``motor_work_positive``
+  [J] = ∫ max(P, 0) dt (the energy drawn without regeneration), ``mesh_loss_energy`` [J] the
+  worm meshes' friction loss.
 """
 
 from __future__ import annotations
@@ -58,7 +73,7 @@ from ..units import deg
 from . import flegx_data as D
 from .flegx import check_angles, flegx
 
-__all__ = ["MotionLaw", "flegx_jump", "JumpResult", "worm_torques", "worm_friction", "jump_metrics"]
+__all__ = ["MotionLaw", "flegx_jump", "JumpResult", "worm_torques", "worm_friction", "jump_metrics", "jump_flight", "worm_drive_outputs"]
 
 
 @dataclass(frozen=True)
@@ -132,7 +147,9 @@ def worm_friction(wheel_speed, static=D.WORM_FRICTION_STATIC, dynamic=D.WORM_FRI
 
 
 def worm_torques(wheel_torque, wheel_speed, gears="worm", friction=None, worm=None, speed_eps=1e-3):
-    """Torque and power at the worm for a given torque and speed at the wheel (seed 002 Eqs. 16-17).
+    """Torque and power at the worm for a given torque and speed at the wheel (seed 002 Eqs. 16-17),
+    quasi-statically (no mesh dynamics): the ideal-gear reporting of :func:`jump_metrics`, and the
+    closed form the dynamic worm mesh (``gears="worm"``) is tested against.
 
     Parameters
     ----------
@@ -205,15 +222,26 @@ class JumpResult:
 
 
 def _add_motions(model, law: MotionLaw):
+    """The law's joint motions on the wheels (ideal gears) or on the worm sliders, s = n r1 Δθ (worm)."""
     info = model.flegx
     s1, s2 = info.stand
     if abs(law.stand[0] - s1) > 1e-12 or abs(law.stand[1] - s2) > 1e-12:
         raise ModelError("flegx_jump: the motion law's stand pose must be the model's modelled pose (flegx(stand=...)).")
-    model.add_motion(Motion("hip_motion", "hip", displacement=lambda t: law.angle(0, t) - s1))
+    hip = lambda t: law.angle(0, t) - s1  # noqa: E731
     if info.knee_drive == "tendon":
-        model.add_motion(Motion("knee_motion", "knee_wheel", displacement=lambda t: law.angle(0, t) + law.angle(1, t) - s1 - s2))
+        knee, knee_joint = (lambda t: law.angle(0, t) + law.angle(1, t) - s1 - s2), "knee_wheel"
     else:
-        model.add_motion(Motion("knee_motion", "knee", displacement=lambda t: law.angle(1, t) - s2))
+        knee, knee_joint = (lambda t: law.angle(1, t) - s2), "knee"
+    if info.gears == "worm":
+        from ..drives.gears import WormGear
+
+        wg = WormGear(**D.WORM)
+        a = wg.ratio * 0.5 * wg.worm_pitch_diameter  # s = n r1 θ
+        model.add_motion(Motion("hip_motion", "hip_worm", displacement=lambda t: a * hip(t)))
+        model.add_motion(Motion("knee_motion", "knee_worm", displacement=lambda t: a * knee(t)))
+    else:
+        model.add_motion(Motion("hip_motion", "hip", displacement=hip))
+        model.add_motion(Motion("knee_motion", knee_joint, displacement=knee))
 
 
 def flegx_jump(configuration: int = 4, link_case: int = 2, link_model: str = "cb", gears: str = "ideal", *,
@@ -289,11 +317,20 @@ def jump_metrics(res, model, law: MotionLaw) -> tuple[dict, dict]:
         tip = np.zeros_like(t)
 
     # torques at the joints and at the worms
-    hip_tau = np.asarray(res.motion("hip_motion").effort)
-    knee_wheel_tau = np.asarray(res.motion("knee_motion").effort)
     w_up = np.asarray(res.part("upper_leg").angular_velocity[:, 1])
     if info.knee_drive == "tendon":
         w_knee_wheel = np.asarray(res.part("knee_wheel").angular_velocity[:, 1])
+    else:
+        w_knee_wheel = np.asarray(res.part("knee_flange").angular_velocity[:, 1]) - w_up
+    if info.gears == "worm":
+        hip_w, knee_w = worm_drive_outputs(res, model, "hip"), worm_drive_outputs(res, model, "knee")
+        hip_tau, knee_wheel_tau = hip_w["wheel_torque"], knee_w["wheel_torque"]
+    else:
+        hip_tau = np.asarray(res.motion("hip_motion").effort)
+        knee_wheel_tau = np.asarray(res.motion("knee_motion").effort)
+        hip_w = worm_torques(hip_tau, w_up, "ideal")
+        knee_w = worm_torques(knee_wheel_tau, w_knee_wheel, "ideal")
+    if info.knee_drive == "tendon":
         K = np.asarray(res.marker("knee.I").position)
         knee_joint_tau = np.zeros_like(t)
         for s in "ab":
@@ -301,33 +338,17 @@ def jump_metrics(res, model, law: MotionLaw) -> tuple[dict, dict]:
             B = np.asarray(res.marker(f"tendon_{s}.knee.J").position)
             knee_joint_tau += np.cross(B - K, -np.asarray(jr.force))[:, 1]
     else:
-        w_knee_wheel = np.asarray(res.part("knee_flange").angular_velocity[:, 1]) - w_up
         knee_joint_tau = knee_wheel_tau
-    hip_w = worm_torques(hip_tau, w_up, info.gears)
-    knee_w = worm_torques(knee_wheel_tau, w_knee_wheel, info.gears)
 
-    # take-off and landing: the flight that contains the guide's apex after the push starts (a
-    # touch-and-go of the still-extending leg, or the hops after landing, are not the jump)
-    i0 = int(np.searchsorted(t, law.push_start))
-    air = np.r_[False, N[i0:] <= 0.0, False]
-    edges = np.flatnonzero(np.diff(air.astype(int)))
-    starts, ends = edges[0::2], edges[1::2]  # flight k: samples i0 + starts[k] ... i0 + ends[k] - 1
-    m = dict(total_mass=info.total_mass)
-    k_apex = int(np.argmax(gz[i0:]))
-    hit = np.flatnonzero((starts <= k_apex) & (k_apex < ends))
-    if hit.size:
-        k = int(hit[0])
-        i_to = i0 + int(starts[k])
-        landed = i0 + int(ends[k]) < len(t)
-        i_ld = min(i0 + int(ends[k]), len(t) - 1)
-        flight = slice(i_to, i_ld + 1)
-        m.update(take_off_time=float(t[i_to]), landing_time=float(t[i_ld]) if landed else math.nan,
-                 jump_height=float(np.max(gz[flight]) - gz[i_to]), foot_clearance=float(np.max(foot_z[flight])),
-                 take_off_velocity=float(gvz[i_to]), max_stress_takeoff=float(np.max(stress[: i_to + 1])),
-                 flights=int(starts.size))
+    # take-off and landing (module docstring): the flight that contains the guide's highest
+    # airborne point after the push starts; the jump height is that point above the standing height
+    jump, (i_to, i_ld) = jump_flight(t, gz, N, law)
+    m = dict(total_mass=info.total_mass, **jump)
+    if jump["flights"]:
+        m.update(foot_clearance=float(np.max(foot_z[i_to : i_ld + 1])), take_off_velocity=float(gvz[i_to]),
+                 max_stress_takeoff=float(np.max(stress[: i_to + 1])))
     else:
-        m.update(take_off_time=math.nan, landing_time=math.nan, jump_height=0.0, foot_clearance=0.0,
-                 take_off_velocity=math.nan, max_stress_takeoff=float(np.max(stress)), flights=0)
+        m.update(foot_clearance=0.0, take_off_velocity=math.nan, max_stress_takeoff=float(np.max(stress)))
     m.update(
         max_stress=float(np.max(stress)), max_stress_clamp_reaction=float(np.max(stress_clamp)),
         tip_displacement=float(np.max(np.abs(tip))),
@@ -336,6 +357,7 @@ def jump_metrics(res, model, law: MotionLaw) -> tuple[dict, dict]:
         peak_hip_torque_worm=float(np.max(np.abs(hip_w["worm_torque"]))),
         peak_knee_torque_worm=float(np.max(np.abs(knee_w["worm_torque"]))),
         motor_energy=float(np.trapezoid(np.abs(hip_w["power_in"]) + np.abs(knee_w["power_in"]), t)),
+        motor_work_positive=float(np.trapezoid(np.clip(hip_w["power_in"], 0, None) + np.clip(knee_w["power_in"], 0, None), t)),
         mesh_loss_energy=float(np.trapezoid(hip_w["mesh_loss"] + knee_w["mesh_loss"], t)),
         peak_ground_force=float(np.max(N)), steps=res.stats["steps"],
     )
@@ -349,7 +371,87 @@ def jump_metrics(res, model, law: MotionLaw) -> tuple[dict, dict]:
         "hip_power_out [W]": hip_w["power_out"], "knee_power_out [W]": knee_w["power_out"],
         "hip_mesh_loss [W]": hip_w["mesh_loss"], "knee_mesh_loss [W]": knee_w["mesh_loss"],
     }
+    if info.gears == "worm":  # the rest of the drives' energy bookkeeping (worm_drive_outputs)
+        for d, o in (("hip", hip_w), ("knee", knee_w)):
+            for k in ("spring_energy", "damping_power", "worm_kinetic_energy"):
+                series[f"{d}_{k} [{'W' if k.endswith('power') else 'J'}]"] = o[k]
     return m, series
+
+
+def worm_drive_outputs(res, model, drive: str) -> dict:
+    """The worm drive ``drive`` ("hip" or "knee") of a ``gears="worm"`` run, recomputed from the
+    result with the same :func:`~proleg.drives.gears.worm_mesh` the dynamics used.
+
+    Returns arrays (n,): ``wheel_torque`` T [N m] (on the wheel about its joint axis),
+    ``worm_torque`` r1 F_motor [N m] (the motor's torque at the worm: the Motion's effort times
+    r1), ``worm_speed`` [rad/s], ``power_in`` (motor) and ``power_out`` (T φ̇ into the wheel)
+    [W], ``mesh_loss`` (friction power μ W v_s) and ``damping_power`` (c δ̇²) [W],
+    ``spring_energy`` [J] (mesh) and ``worm_kinetic_energy`` [J] (rotor, relative to the
+    housing), ``mu``, ``sliding_speed`` [m/s], ``normal_force`` [N], ``efficiency`` (power_out /
+    power_in where the worm drives, NaN elsewhere), ``back_efficiency`` (power_in / power_out
+    where the wheel drives). Work balance: power_in = power_out + mesh_loss + damping_power +
+    d/dt(spring_energy + worm_kinetic_energy) (the test of ``gears="worm"``).
+    """
+    import jax.numpy as jnp
+
+    from ..drives.gears import WormGear, worm_mesh
+
+    wg = WormGear(**D.WORM)
+    r1 = 0.5 * wg.worm_pitch_diameter
+    wheel_joint = {"hip": "hip", "knee": "knee_wheel" if model.flegx.knee_drive == "tendon" else "knee"}[drive]
+    pj = res.joint(f"{drive}_worm")
+    zs = np.asarray(res.marker(f"{drive}_worm.J").orientation)[:, :, 2]
+    sd = np.sum(zs * (np.asarray(res.marker(f"{drive}_worm.I").velocity) - np.asarray(res.marker(f"{drive}_worm.J").velocity)), -1)
+    wi, wj = (np.asarray(res.marker(f"{wheel_joint}.{e}").angular_velocity) for e in "IJ")
+    zw = np.asarray(res.marker(f"{wheel_joint}.J").orientation)[:, :, 2]
+    phid = np.sum(zw * (wi - wj), -1)
+    p = res.system.params
+    r2c = 0.5 * wg.wheel_pitch_diameter * math.cos(wg.lead_angle)
+    out = {k: np.asarray(v) for k, v in worm_mesh(
+        wg, jnp.asarray(pj.translation), jnp.asarray(sd), jnp.asarray(res.joint(wheel_joint).angle), jnp.asarray(phid),
+        D.WORM_MESH_STIFFNESS / r2c**2, D.WORM_MESH_DAMPING / r2c**2, p["variable_worm_f_static"], p["variable_worm_f_dynamic"],
+        D.WORM_V_STATIC, D.WORM_V_DYNAMIC).items()}
+    F = np.asarray(res.motion(f"{drive}_motion").effort)
+    m = next(q.mass for q in model.parts if q.name == f"{drive}_worm")
+    P_in, P_out = F * sd, out["wheel_torque"] * phid
+    with np.errstate(invalid="ignore", divide="ignore"):
+        eff = np.where((P_in > 0) & (P_out > 0), P_out / P_in, np.nan)
+        back = np.where((P_in < 0) & (P_out < 0), P_in / P_out, np.nan)
+    return dict(wheel_torque=out["wheel_torque"], worm_torque=F * r1, worm_speed=sd / r1, power_in=P_in, power_out=P_out,
+                mesh_loss=out["friction_power"], damping_power=D.WORM_MESH_DAMPING / r2c**2 * out["approach_rate"] ** 2,
+                spring_energy=out["spring_energy"], worm_kinetic_energy=0.5 * m * sd**2, mu=out["mu"],
+                sliding_speed=out["sliding_speed"], normal_force=out["normal_force"], efficiency=eff, back_efficiency=back)
+
+
+def jump_flight(t, guide_z, normal_force, law: MotionLaw) -> tuple[dict, tuple[int, int]]:
+    """The jump in a run (module docstring, "Jump metrics"): ``jump_height`` [m], ``flight_rise`` [m],
+    ``take_off_time``/``landing_time``/``apex_time`` [s], ``flights`` (airborne phases after the push
+    starts), and the indices (take-off, landing) of the flight (landing: the last sample if the
+    run ends in the air).
+
+    t (n,) [s], guide_z (n,) [m] guide (hip) height, normal_force (n,) [N] foot contact force;
+    airborne = zero contact force. Robust to touch-and-go and to the hops after the landing: the
+    jump is the flight that holds the highest airborne guide position, and its height is measured
+    from the standing height (the guide at the end of ``t_settle``), not from a take-off.
+    """
+    t, gz, N = (np.asarray(a, float) for a in (t, guide_z, normal_force))
+    i0 = int(np.searchsorted(t, law.push_start))
+    air = np.r_[False, N[i0:] <= 0.0, False]
+    edges = np.flatnonzero(np.diff(air.astype(int)))
+    starts, ends = i0 + edges[0::2], i0 + edges[1::2]  # flight k: samples starts[k] ... ends[k] - 1
+    if not starts.size:
+        return dict(jump_height=0.0, flight_rise=0.0, take_off_time=math.nan, landing_time=math.nan, apex_time=math.nan,
+                    flights=0), (len(t) - 1, len(t) - 1)
+    z_air = np.where(air[1:-1], gz[i0:], -np.inf)
+    i_apex = i0 + int(np.argmax(z_air))
+    k = int(np.flatnonzero((starts <= i_apex) & (i_apex < ends))[0])
+    i_to, i_end = int(starts[k]), int(ends[k])
+    landed = i_end < len(t)
+    i_ld = min(i_end, len(t) - 1)
+    z_stand = gz[int(np.searchsorted(t, law.t_settle))]
+    return dict(jump_height=float(max(gz[i_apex] - z_stand, 0.0)), flight_rise=float(gz[i_apex] - gz[i_to]),
+                take_off_time=float(t[i_to]), landing_time=float(t[i_ld]) if landed else math.nan,
+                apex_time=float(t[i_apex]), flights=int(starts.size)), (i_to, i_ld)
 
 
 def _strip_axis_local(model):

@@ -1,0 +1,214 @@
+"""FLEGX design study (seed 002 §IV, Table I) through :class:`proleg.study.Study`.
+
+The variants (configurations No. 1-4 × link cases 1-6, PRBM link; CB link for one case) are
+grouped by **compiled shape**: configurations No. 1-3 drive the knee directly and No. 4 through
+the tendons (other bodies and joints), and the PRBM and CB links are different bodies. Within
+a group every variant is the same System with other parameter values: the mass split, the
+strip's geometry, the PRBM's γ, K_t, C_t and the standing pose's coordinates are all
+parameters of the assembled System (checked: the constraint, force and mass functions of a
+variant built from scratch and of the group's base System with the variant's parameters agree
+to the last bit, ``tests/test_flegx.py``). So each group is one :class:`~proleg.study.Study`
+of the group's base System over the space {configuration, link_case} whose ``apply`` looks the
+variant's parameter arrays up in a table: one compilation per group (four in all), the variants
+in ``vmap`` batches, rows stored as Parquet with resume (a rerun with the same store skips what
+is done), rich progress.
+
+:class:`proleg.study.Study` with a *builder* would rebuild the model per variant and group
+by a pickle of the topology, which holds the model's numbers: every FLEGX variant would be
+its own group and compile (noted for study/); the table ``apply`` avoids that.
+
+Simulated window: the jump of :func:`~proleg.robots.flegx_jump.flegx_jump` (same motion law
+for every variant) up to ``STUDY_T_AFTER`` after the end of the push: take-off and apex (Table
+I's "investigated movement was the take-off phase"); a variant whose apex falls on the last
+output is flagged (``apex_in_window`` false).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from . import flegx_data as D
+from .flegx import flegx
+from .flegx_jump import MotionLaw, _add_motions, jump_metrics
+
+__all__ = ["STUDY_T_AFTER", "study_groups", "group_study", "run_table_i", "ranking"]
+
+#: simulated time after the end of the push [s]: the apex of every variant falls inside it
+#: (measured: the apex falls 0.03 s before to 0.05 s after the push end; the landing is not needed for Table I)
+STUDY_T_AFTER = 0.2
+#: the metrics kept as study outputs (flegx_jump docstring)
+OUTPUTS = ("jump_height", "flight_rise", "foot_clearance", "take_off_time", "apex_time", "max_stress_takeoff",
+           "max_stress", "tip_displacement", "total_mass", "peak_hip_torque", "peak_knee_torque")
+
+
+def study_groups(configurations=(1, 2, 3, 4), cases=(1, 2, 3, 4, 5, 6), cb_case: int | None = 2) -> list[dict]:
+    """The compiled-shape groups: (link model, knee drive) with their configurations and cases."""
+    direct = [c for c in configurations if D.UPPER_LEG[c]["knee_drive"] == "direct"]
+    tendon = [c for c in configurations if D.UPPER_LEG[c]["knee_drive"] == "tendon"]
+    groups = []
+    for lm, cs in (("cb", [cb_case] if cb_case else []), ("prbm", list(cases))):
+        for drive, confs in (("direct", direct), ("tendon", tendon)):
+            if confs and cs:
+                groups.append(dict(name=f"{lm}-{drive}", link_model=lm, configurations=tuple(confs), cases=tuple(cs)))
+    return groups
+
+
+class _Variants:
+    """The models and assembled Systems of one group, and the table of their differing parameters."""
+
+    def __init__(self, group: dict, law: MotionLaw):
+        import proleg as pl
+
+        self.group, self.law = group, law
+        self.keys = [(c, k) for c in group["configurations"] for k in group["cases"]]
+        self.models, self.systems = {}, {}
+        for c, k in self.keys:
+            m = flegx(c, k, group["link_model"], stand=law.stand, name=f"flegx_{group['name']}")
+            _add_motions(m, law)
+            with warnings.catch_warnings():
+                warnings.filterwarnings("ignore", message=".*redundant constraint.*")
+                self.systems[c, k] = pl.assemble(m)
+            self.models[c, k] = m
+        self.base = self.systems[self.keys[0]]
+        names = [n for n in sorted(self.base.params)
+                 if any(not np.array_equal(np.asarray(s.params[n]), np.asarray(self.base.params[n])) for s in self.systems.values())]
+        self.table = {n: np.stack([np.asarray(self.systems[key].params[n]) for key in self.keys]) for n in names}
+        self.mass = np.stack([np.asarray(self.systems[key].params["body_mass"]) for key in self.keys])
+
+    def apply(self, system, vals):
+        """Traceable: the variant's parameter arrays, looked up by (configuration, link_case)."""
+        import jax.numpy as jnp
+
+        confs, cases = self.group["configurations"], self.group["cases"]
+        ci = jnp.argmin(jnp.abs(jnp.asarray(confs, float) - vals["configuration"]))
+        ki = jnp.argmin(jnp.abs(jnp.asarray(cases, float) - vals["link_case"]))
+        i = ci * len(cases) + ki
+        return system.with_params(**{n: jnp.take(jnp.asarray(v), i, axis=0) for n, v in self.table.items()})
+
+    def key_of(self, result) -> tuple[int, int]:
+        """(configuration, link_case) of a variant's Result (by its body masses, unique per variant)."""
+        m = np.asarray(result.system.params["body_mass"])
+        return self.keys[int(np.argmin(np.abs(self.mass - m).sum(axis=1)))]
+
+
+def group_study(group: dict, law: MotionLaw | None = None, dt_output: float = 2e-3, rtol: float = 1e-5, atol: float = 1e-6):
+    """A :class:`proleg.study.Study` of one group (module docstring) and its design table."""
+    from ..study import Study
+
+    law = law or MotionLaw(t_after=STUDY_T_AFTER)
+    var = _Variants(group, law)
+    cache = {}
+
+    def metrics(r):
+        if cache.get("r") is not r:
+            m, _ = jump_metrics(r, var.models[var.key_of(r)], law)
+            m["apex_in_window"] = float(m["apex_time"] < r.t[-1] - 1.5 * dt_output) if m["flights"] else 1.0
+            cache.update(r=r, m=m)
+        return cache["m"]
+
+    outputs = {k: (lambda r, k=k: metrics(r)[k]) for k in (*OUTPUTS, "apex_in_window")}
+    study = Study(var.base, {"configuration": list(group["configurations"]), "link_case": list(group["cases"])}, outputs,
+                  simulate=dict(t_end=law.t_end, dt_output=dt_output, rtol=rtol, atol=atol), apply=var.apply,
+                  name=f"flegx {group['name']}")
+    design = pd.DataFrame(var.keys, columns=["configuration", "link_case"]).astype(float)
+    return study, design
+
+
+#: seconds per variant of each group, measured on the loaded 2-core machine (load ≈ 10), for the order
+COST_S = {("cb", "direct"): 45.0, ("cb", "tendon"): 150.0, ("prbm", "direct"): 6.5, ("prbm", "tendon"): 12.0}
+
+
+def _cost(group) -> float:
+    """Estimated wall time of a group [s]: variants × COST_S + 30 s of compilation."""
+    drive = group["name"].split("-")[1]
+    return 30.0 + COST_S[group["link_model"], drive] * len(group["configurations"]) * len(group["cases"])
+
+
+def _run_group(group: dict, store_dir: str, executor: str, progress: bool, law) -> pd.DataFrame:
+    """One group's Study (module-level: worker processes run it)."""
+    import time
+
+    t0 = time.perf_counter()
+    study, design = group_study(group, law)
+    rows = study.evaluate(design, executor=executor, store=Path(store_dir) / group["name"], progress=progress,
+                          workers=1 if executor == "vmap" else None, label=f"flegx {group['name']}")
+    rows.insert(0, "link model", group["link_model"])
+    rows["group wall [s]"] = time.perf_counter() - t0
+    return rows
+
+
+def run_table_i(store_dir, configurations=(1, 2, 3, 4), cases=(1, 2, 3, 4, 5, 6), cb_case: int | None = 2,
+                progress: bool = True, executor: str = "vmap", law: MotionLaw | None = None, workers: int | None = None) -> pd.DataFrame:
+    """Every group's Study, stored under ``store_dir/<group>``; one row per variant with
+    ``link model``, the metrics (SI), ``> 510 MPa`` (stress up to take-off) and the batch's
+    wall time per variant (compilation included).
+
+    The groups run in ``workers`` processes at once (default: the cores this process may use),
+    longest first (CB before PRBM), each group's variants in one ``vmap`` batch: on 2 cores the
+    single long CB run of No. 4 takes one core while the other groups share the other.
+    """
+    import concurrent.futures as cf
+    import multiprocessing as mp
+    import os
+
+    groups = study_groups(configurations, cases, cb_case)
+    workers = workers or max(1, min(len(groups), len(os.sched_getaffinity(0))))
+    groups.sort(key=lambda g: -_cost(g))
+    frames = {}
+    bar = _bar(progress, sum(len(g["configurations"]) * len(g["cases"]) for g in groups))
+    try:
+        if workers == 1:
+            for g in groups:
+                frames[g["name"]] = _run_group(g, str(store_dir), executor, False, law)
+                if bar:
+                    bar.advance(g)
+        else:
+            with cf.ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as ex:
+                futs = {ex.submit(_run_group, g, str(store_dir), executor, False, law): g for g in groups}
+                for f in cf.as_completed(futs):
+                    frames[futs[f]["name"]] = f.result()
+                    if bar:
+                        bar.advance(futs[f])
+    finally:
+        if bar:
+            bar.stop()
+    tab = pd.concat([frames[g["name"]] for g in groups], ignore_index=True)
+    tab[["configuration", "link_case"]] = tab[["configuration", "link_case"]].astype(int)
+    tab["> 510 MPa"] = tab["max_stress_takeoff"] > D.ULTIMATE_STRENGTH[0]
+    bad = tab[tab["status"] != "success"]
+    if len(bad):
+        warnings.warn(f"flegx study: {len(bad)} variants failed: " + "; ".join(f"No. {r.configuration} case {r.link_case}: {r.reason}"
+                                                                          for r in bad.itertuples()), stacklevel=2)
+    return tab.sort_values(["link model", "configuration", "link_case"], ignore_index=True)
+
+
+def _bar(show: bool, total: int):
+    return _Bar(total) if show else None
+
+
+class _Bar:
+    """rich progress over the variants of all groups, advanced as each group's Study returns."""
+
+    def __init__(self, total):
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+        self.p = Progress(TextColumn("[bold]flegx-study[/] {task.fields[last]}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
+        self.task = self.p.add_task("study", total=total, last="")
+        self.p.start()
+
+    def advance(self, group):
+        n = len(group["configurations"]) * len(group["cases"])
+        self.p.update(self.task, advance=n, last=f"{group['name']} done")
+
+    def stop(self):
+        self.p.stop()
+
+
+def ranking(values: dict) -> list[int]:
+    """Configurations sorted by decreasing jump height ({configuration: height})."""
+    return [c for c, _ in sorted(values.items(), key=lambda kv: -kv[1] if math.isfinite(kv[1]) else math.inf)]
