@@ -52,6 +52,9 @@ def test_tension_links_equilibrium_and_bidirectionality():
     # links stretched one way, compressed the other: the stress-stiffened response differs
     assert 1e-3 < m["calibration_mismatch"] < 0.2
     assert m["safety_factor"] > 1.0
+    # rigid interfaces: case B (motor side fixed) is case A plus a rigid rotation -> same gauge strains
+    g = r.gauges.set_index(["case", "direction", "gauge"])["strain"]
+    assert np.allclose(g.loc["B"], g.loc["A"], rtol=1e-6, atol=0)
 
 
 @pytest.mark.parametrize("concept, dims, match", [
@@ -74,12 +77,17 @@ def test_zero_torque_is_refused():
 
 @pytest.mark.slow
 def test_optimisation_is_resumable(tmp_path):
-    """Two calls on one SQLite storage: the second continues the first's study (each trial an FE solve)."""
+    """Two calls on one store: the second continues the first's study (each trial an FE solve) and
+    re-solves nothing that the Parquet store already holds."""
+    from proleg.study import Store
     from proleg.robots.sensor_study import optimize_sensor
 
-    url = f"sqlite:///{tmp_path / 'opt.db'}"
-    study, _ = optimize_sensor(url, n_trials=1, search_mesh=0.006)
-    assert len(study.trials) == 1
-    study, hist = optimize_sensor(url, n_trials=1, search_mesh=0.006)
-    assert len(study.trials) == 2 and len(hist) == 2
-    assert study.trials[0].user_attrs["gauge_strain"] > 0
+    store = tmp_path / "opt"
+    first = optimize_sensor(store, n_trials=1, workers=1, search_mesh=0.006)
+    assert len(first.rows) == 1 and first.best["trial"] == 0
+    assert first.best["feasible"]  # trial 0 is the default design: inside the gauge range, elastic, reachable
+    assert 2e-4 < first.best["gauge_strain"] <= 6e-4
+    again = optimize_sensor(store, n_trials=2, workers=1, search_mesh=0.006)
+    assert len(again.study.trials) == 2 and len(again.rows) == 2
+    assert len(Store(store).read()) == 2  # trial 0 read back from the store, not solved again
+    assert again.rows.gauge_strain.iloc[0] == first.rows.gauge_strain.iloc[0]
