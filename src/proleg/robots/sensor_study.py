@@ -13,10 +13,11 @@ changes the gauge strain by < 1 %); the constraints go to optuna's TPE as constr
 (feasible when <= 0), not as a penalty.
 
 Design space (bench/torque_sensor_design_space.py, 1-D scan of the neck width at the defaults,
-5 mm mesh, case A; measured): the gauge strain falls from 0.075 % (neck 4 mm) through 0.061 %
-(5.5 mm) to ~0.05 % (7 mm) while the safety factor stays > 5: the binding constraint is the
-gauge's linear range (strain <= 0.06 %); the optimum sits on it, and the yield and stiffness
-constraints are slack. The earlier defaults (neck 4 x 10 mm, r_link 11 mm) gave 0.12 %, twice
+5 mm mesh, case A; measured, bench/results/torque_sensor_design_space_neck_width.csv): gauge
+strain 0.075 / 0.065 / 0.057 / 0.051 / 0.048 % at neck 4 / 5 / 6 / 7 / 7.5 mm, safety factor
+5.1 to 7.4, stiffness 1975 to 2334 N m/deg: the binding constraint is the gauge's linear range
+(strain <= 0.06 %, met from a neck of ~5.4 mm); the optimum sits on it, and the yield and
+stiffness constraints are slack. The earlier defaults (neck 4 x 10 mm, r_link 11 mm) gave 0.12 %, twice
 the limit, and the earlier space reached 0.06 % only at its corners -- hence no feasible trial.
 
 Running: optuna asks ``workers`` trials at a time; they are solved in spawned worker processes
