@@ -75,6 +75,27 @@ def test_zero_torque_is_refused():
         torque_sensor_analysis("final", torque=0.0)
 
 
+@pytest.mark.parametrize("kw, match", [
+    (dict(interface="glued"), "interface"),
+    (dict(cases=("B",)), "cases"),
+    (dict(mesh_size=-0.001), "mesh_size"),
+    (dict(concept="bellows"), "bellows"),
+    (dict(spoke_width=0.005), "spoke_width"),  # a dimension of another concept
+])
+def test_bad_analysis_options_name_the_parameter(kw, match):
+    with pytest.raises(ModelError, match=match):
+        torque_sensor_analysis(**{"concept": "final", **kw})
+
+
+def test_bad_optimisation_options():
+    from proleg.robots.sensor_study import optimize_sensor
+
+    with pytest.raises(ModelError, match="n_trials"):
+        optimize_sensor(n_trials=0)
+    with pytest.raises(ModelError, match="workers"):
+        optimize_sensor(n_trials=1, workers=0)
+
+
 @pytest.mark.slow
 def test_optimisation_is_resumable(tmp_path):
     """Two calls on one store: the second continues the first's study (each trial an FE solve) and

@@ -293,8 +293,9 @@ def mesh_convergence(concept: str = "final", sizes=(0.004, 0.003, 0.002, 0.0015)
     rows = []
     for h in sizes:
         m = torque_sensor_analysis(concept, mesh_size=h, **kw).metrics
-        rows.append({k: m[k] for k in ("mesh_size", "n_dofs", "gauge_strain", "max_von_mises", "stiffness",
-                                       "calibration_ccw", "time_solve")})
+        rows.append({k: m[k] for k in ("mesh_size", "n_dofs", "gauge_strain", "max_von_mises", "max_von_mises_radius_mm",
+                                       "stiffness", "calibration_ccw", "time_mesh", "time_solve")})
+        print(rows[-1], flush=True)
     df = pd.DataFrame(rows)
     for k in ("gauge_strain", "max_von_mises", "stiffness", "calibration_ccw"):
         df[k + "_rel"] = df[k] / df[k].iloc[-1] - 1.0
