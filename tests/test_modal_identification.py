@@ -71,6 +71,23 @@ def test_torso_modes_follow_table2_pattern():
     assert f[first_mount] < f[first_frame]
     with pytest.raises(ModelError, match="tube_wall"):
         torso_modal(tube_wall=0.03)
+    with pytest.raises(ModelError, match="n_cross"):
+        torso_modal(n_cross=9)
+
+
+def test_torso_table2_rows():
+    """The tuned defaults put the bounce on the foam and the heavy masses' vertical modes on seed 001
+    Table 2's numerical column (1.8, 32, 40 Hz) within 3 %; the bounce obeys the closed form of a
+    rigid body on four pads, f = sqrt(4 k_pad / m) / 2 pi, within 1 % (the frame barely bends)."""
+    from proleg.robots.torso import TORSO_DEFAULTS, table2_comparison, torso_modal
+
+    r = torso_modal(n_modes=40)
+    t = table2_comparison(r)
+    assert np.abs(t["vs numerical [%]"].iloc[:3]).max() < 3.0
+    m = r.effective_mass.attrs["total_mass"]
+    assert t["FE [Hz]"].iloc[0] == pytest.approx(np.sqrt(4 * TORSO_DEFAULTS["pad_stiffness"] / m) / (2 * np.pi), rel=0.01)
+    assert list(t["kind"].str[:5]) == ["suppo", "heavy", "heavy", "frame", "frame", "frame"]
+    assert (t["paper experimental [Hz]"] == [2, 30, 37, 112, 145, 155]).all()
 
 
 def test_cli_identify_modal(tmp_path):
