@@ -24,7 +24,7 @@ if __name__ == "__main__":
     a = ap.parse_args()
     t0 = time.perf_counter()
     df = mesh_convergence(a.concept, sizes=[float(s) * 1e-3 for s in a.sizes.split(",")], cases=("A",),
-                          geometry_checks=False)
+                          geometry_checks=False, verbose=True)
     out = Path(__file__).parent / "results"
     out.mkdir(exist_ok=True)
     df.to_csv(out / f"torque_sensor_convergence_{a.concept}.csv", index=False)

@@ -1,10 +1,10 @@
 """Design space of the final torque-sensor concept (issue 17): a 1-D scan of one dimension (default
 the neck width, the gauge section) with the others at their defaults, and which constraint binds.
 
-    PYTHONPATH=src python bench/torque_sensor_design_space.py [--name neck_width] [--values 4,5,5.5,6,7] [--mesh 5]
+    PYTHONPATH=src python bench/torque_sensor_design_space.py [--name neck_width] [--values 4,5,6,7] [--mesh 6]
 
 Each point is the optimisation's evaluation (:func:`proleg.robots.sensor_study.evaluate_design`:
-case A, no stress stiffening, ``--mesh`` mm). Columns c_* are the constraint values (feasible when
+case A, no stress stiffening, sharp corners, ``--mesh`` mm). Columns c_* are the constraint values (feasible when
 <= 0): c_strain = gauge strain / 0.06 % - 1, c_yield = 2 / safety factor - 1, c_stiffness =
 1 - stiffness / 140 N m/deg, c_reach = 1 if a gauge face has < 6 mm free in front. Writes
 bench/results/torque_sensor_design_space_<name>.csv and prints the table.
@@ -24,7 +24,7 @@ if __name__ == "__main__":
     ap = argparse.ArgumentParser()
     ap.add_argument("--name", default="neck_width", help="a dimension of the final concept")
     ap.add_argument("--values", default="4,5,5.5,6,7", help="values [mm]")
-    ap.add_argument("--mesh", type=float, default=5.0, help="element size [mm]")
+    ap.add_argument("--mesh", type=float, default=6.0, help="element size [mm]")
     a = ap.parse_args()
     d = DEFAULTS["final"]
     base = dict(link_width=d["link_width"], neck_ratio=d["neck_width"] / d["link_width"], r_link=d["r_link"],

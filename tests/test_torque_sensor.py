@@ -52,9 +52,13 @@ def test_tension_links_equilibrium_and_bidirectionality():
     # links stretched one way, compressed the other: the stress-stiffened response differs
     assert 1e-3 < m["calibration_mismatch"] < 0.2
     assert m["safety_factor"] > 1.0
-    # rigid interfaces: case B (motor side fixed) is case A plus a rigid rotation -> same gauge strains
+    # rigid interfaces: case B (motor side fixed, torque on the ring) is case A with the opposite
+    # relative rotation plus a rigid rotation: opposite gauge strains. Linear theory makes them
+    # exact; the geometric stiffness also acts on the rigid rotation of the prestressed part, a
+    # second-order difference (1.4 % at this mesh)
     g = r.gauges.set_index(["case", "direction", "gauge"])["strain"]
-    assert np.allclose(g.loc["B"], g.loc["A"], rtol=1e-6, atol=0)
+    assert np.allclose(g.loc["B"], -g.loc["A"], rtol=0.03, atol=0)
+    assert not np.allclose(g.loc["B"], -g.loc["A"], rtol=1e-3, atol=0)
 
 
 @pytest.mark.parametrize("concept, dims, match", [

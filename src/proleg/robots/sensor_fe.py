@@ -132,7 +132,7 @@ def torque_sensor_analysis(concept: str = "final", torque: float = 140.0, mesh_s
                            gauge_factor: float = 2.0, clearance: float = 0.006, flatness_tol: float = 5e-6,
                            interface_band: float = 0.002, stress_stiffening: bool = True, refine_gauges: bool = True,
                            interface: str = "rigid", cases: tuple = ("A", "B"), geometry_checks: bool = True,
-                           **dimensions) -> SensorResult:
+                           curvature_points: int = 0, **dimensions) -> SensorResult:
     """FE analysis of one torque-sensor design (seed 001 Problem 2).
 
     Parameters
@@ -152,8 +152,10 @@ def torque_sensor_analysis(concept: str = "final", torque: float = 140.0, mesh_s
                                   radius on a face free to deform (a soft flange: the ring then bends between
                                   the links and the gauges see up to ~1.6x more strain)
     cases : subset of ("A", "B")  load cases to solve (A must be one). With ``interface="rigid"`` B is the
-                                  same boundary-value problem as A plus a rigid rotation (same strains), so a
-                                  search may solve A alone
+                                  same linear problem as A plus a rigid rotation (opposite strains; ~1 % apart
+                                  with stress stiffening), so a linear search may solve A alone
+    curvature_points : int        extra elements along the fillets (gmsh elements per 2 pi of curvature; 0:
+                                  sizes from mesh_size and h_min = mesh_size / 4 only; see the mesh convergence)
     geometry_checks : bool        run the gauge-face planarity / clearance checks (gmsh, ~2 s); False
                                   reports them as NaN / None
     **dimensions : [m]            concept dimensions (:data:`proleg.robots.torque_sensor.DEFAULTS`)
@@ -174,7 +176,8 @@ def torque_sensor_analysis(concept: str = "final", torque: float = 140.0, mesh_s
     t0 = time.perf_counter()
     h = design.mesh_size
     refine = [(g.center, 0.004, h / 2) for g in design.gauges] if refine_gauges else None
-    model = SolidModel(*mesh_occ(design.build, h, refine=refine, h_min=h / 4), material, order=2)
+    model = SolidModel(*mesh_occ(design.build, h, refine=refine, h_min=h / 4, curvature_points=curvature_points),
+                       material, order=2)
     t_mesh = time.perf_counter() - t0
     rot = rotation_field(model)
     cases = {c: {"A": (design.motor_face, design.hd_face), "B": (design.hd_face, design.motor_face)}[c] for c in cases}
@@ -287,15 +290,18 @@ def torque_sensor_analysis(concept: str = "final", torque: float = 140.0, mesh_s
     return SensorResult(metrics, gauges, model, design, sols, vms, X)
 
 
-def mesh_convergence(concept: str = "final", sizes=(0.004, 0.003, 0.002, 0.0015), **kw) -> pd.DataFrame:
+def mesh_convergence(concept: str = "final", sizes=(0.006, 0.005, 0.004, 0.003), *, verbose: bool = False,
+                     **kw) -> pd.DataFrame:
     """Gauge strain, max von Mises, stiffness and calibration on a sequence of meshes (coarse to
-    fine); columns ``*_rel`` are the differences from the finest mesh [-]."""
+    fine); columns ``*_rel`` are the differences from the finest mesh [-]. ``verbose`` prints each
+    row as it is done; ``kw`` go to :func:`torque_sensor_analysis`."""
     rows = []
     for h in sizes:
         m = torque_sensor_analysis(concept, mesh_size=h, **kw).metrics
         rows.append({k: m[k] for k in ("mesh_size", "n_dofs", "gauge_strain", "max_von_mises", "max_von_mises_radius_mm",
                                        "stiffness", "calibration_ccw", "time_mesh", "time_solve")})
-        print(rows[-1], flush=True)
+        if verbose:
+            print(rows[-1], flush=True)
     df = pd.DataFrame(rows)
     for k in ("gauge_strain", "max_von_mises", "stiffness", "calibration_ccw"):
         df[k + "_rel"] = df[k] / df[k].iloc[-1] - 1.0
