@@ -21,7 +21,7 @@ are chosen (documented in :data:`TORSO_DEFAULTS`); every one is a parameter. Tun
   machines): the heavy masses' vertical modes at 32.7 and 39.2 Hz (Table 2: 32 / 30, 40 / 37 Hz);
 - tube 40 x 3 mm, masses motor 12 kg, pump 8 kg, tank 10 kg (HyQ ~80 kg, legs ~26 kg).
 
-Measured against Table 2's numerical column: +0 / +2 / -2 % for the first three rows; the three
+Measured against Table 2's numerical column: +0.3 / +2.3 / -2.0 % for the first three rows; the three
 lowest frame modes (81.8, 86.7, 161.9 Hz) are -32 / -39 / +7 % off 120 / 143 / 152 Hz. A
 Nelder-Mead fit of eight parameters inside the ranges (the bench script) brings no robust gain:
 its best point (cost 0.08 against 0.41 here) sits where the frame/mount classification of
