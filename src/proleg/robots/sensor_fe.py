@@ -74,6 +74,12 @@ def _von_mises_qp(model, u):
     return np.sqrt(1.5 * np.einsum("ij...,ij...->...", dev, dev))
 
 
+def _all(flags):
+    """all() of booleans, None when the checks were not run."""
+    flags = list(flags)
+    return None if any(f is None for f in flags) else all(flags)
+
+
 def _geometry_checks(design, clearance, flatness_tol):
     """Per gauge: flatness [m] of the true (CAD) surface under the grid, and the free distance [m]
     in front of it (up to ``clearance``), from gmsh's OpenCASCADE model."""
@@ -106,10 +112,14 @@ def _geometry_checks(design, clearance, flatness_tol):
             _, _, vt = np.linalg.svd(proj - centroid)
             flat = float(np.ptp((proj - centroid) @ vt[2]))
             planar = gmsh.model.getType(2, tag) == "Plane" and onface == len(pts) and flat <= flatness_tol
+            # free space: the grid's centre and corners pushed out along the normal in 0.5 mm
+            # steps; the first step that enters the solid bounds the clearance (gmsh's isInside
+            # costs ~8 ms a point, so 5 points x 12 steps, not the full 5 x 5 grid)
             free = clearance
-            for dist in np.linspace(0.25e-3, clearance, 24):
-                if gmsh.model.isInside(3, vol, (proj + (dist + 1e-6) * n).ravel()):
-                    free = float(dist)
+            probe = proj[[0, 4, 12, 20, 24]]
+            for dist in np.linspace(clearance / 12, clearance, 12):
+                if gmsh.model.isInside(3, vol, (probe + (dist + 1e-6) * n).ravel()):
+                    free = float(dist - clearance / 12)
                     break
             out.append(dict(flatness=flat, planar=bool(planar), clearance=free, reachable=free >= clearance))
         return out
@@ -121,7 +131,8 @@ def torque_sensor_analysis(concept: str = "final", torque: float = 140.0, mesh_s
                            material="al7075-t6", min_gauge_strain: float = 2e-4, max_gauge_strain: float = 6e-4,
                            gauge_factor: float = 2.0, clearance: float = 0.006, flatness_tol: float = 5e-6,
                            interface_band: float = 0.002, stress_stiffening: bool = True, refine_gauges: bool = True,
-                           **dimensions) -> SensorResult:
+                           interface: str = "rigid", cases: tuple = ("A", "B"), geometry_checks: bool = True,
+                           curvature_points: int = 0, **dimensions) -> SensorResult:
     """FE analysis of one torque-sensor design (seed 001 Problem 2).
 
     Parameters
@@ -135,6 +146,18 @@ def torque_sensor_analysis(concept: str = "final", torque: float = 140.0, mesh_s
     flatness_tol : [m]            peak-to-valley flatness under the grid for "planar"
     interface_band : [m]          band next to the interface faces excluded from max von Mises
     stress_stiffening : bool      solve each direction with its geometric stiffness (see module doc)
+    interface : "rigid" | "traction"   how the torque enters the loaded face: "rigid" (default), the face
+                                  turns as a rigid body (a bolted flange or a keyed shaft; Nastran's RBE2) and
+                                  the torque is its reaction; "traction", a shear traction proportional to the
+                                  radius on a face free to deform (a soft flange: the ring then bends between
+                                  the links and the gauges see up to ~1.6x more strain)
+    cases : subset of ("A", "B")  load cases to solve (A must be one). With ``interface="rigid"`` B is the
+                                  same linear problem as A plus a rigid rotation (opposite strains; ~1 % apart
+                                  with stress stiffening), so a linear search may solve A alone
+    curvature_points : int        extra elements along the fillets (gmsh elements per 2 pi of curvature; 0:
+                                  sizes from mesh_size and h_min = mesh_size / 4 only; see the mesh convergence)
+    geometry_checks : bool        run the gauge-face planarity / clearance checks (gmsh, ~2 s); False
+                                  reports them as NaN / None
     **dimensions : [m]            concept dimensions (:data:`proleg.robots.torque_sensor.DEFAULTS`)
     """
     from ..fem import SolidModel
@@ -144,15 +167,20 @@ def torque_sensor_analysis(concept: str = "final", torque: float = 140.0, mesh_s
     if not (isinstance(torque, int | float) and math.isfinite(torque) and torque != 0):
         raise ModelError(f"torque_sensor_analysis torque = {torque!r} must be a non-zero finite number [N m] "
                          "(e.g. 140.0).")
+    if interface not in ("rigid", "traction"):
+        raise ModelError(f"torque_sensor_analysis interface = {interface!r}; use 'rigid' or 'traction'.")
+    if "A" not in cases or not set(cases) <= {"A", "B"}:
+        raise ModelError(f"torque_sensor_analysis cases = {cases!r}; use ('A', 'B') or ('A',).")
     T = abs(float(torque))
     design = sensor_design(concept, mesh_size, **dimensions)
     t0 = time.perf_counter()
     h = design.mesh_size
     refine = [(g.center, 0.004, h / 2) for g in design.gauges] if refine_gauges else None
-    model = SolidModel(*mesh_occ(design.build, h, refine=refine, h_min=h / 4), material, order=2)
+    model = SolidModel(*mesh_occ(design.build, h, refine=refine, h_min=h / 4, curvature_points=curvature_points),
+                       material, order=2)
     t_mesh = time.perf_counter() - t0
     rot = rotation_field(model)
-    cases = {"A": (design.motor_face, design.hd_face), "B": (design.hd_face, design.motor_face)}
+    cases = {c: {"A": (design.motor_face, design.hd_face), "B": (design.hd_face, design.motor_face)}[c] for c in cases}
     sols, vms, rows, lin = {}, {}, [], {}
     react_err, twist_deg = 0.0, None
     X = model.basis.mapping.F(model.basis.X)  # (3, ne, nq)
@@ -161,37 +189,60 @@ def torque_sensor_analysis(concept: str = "final", torque: float = 140.0, mesh_s
         lf, ff = _facets_on(model, loaded), _facets_on(model, fixed)
         if lf.size == 0 or ff.size == 0:
             raise ModelError(f"torque sensor {concept}: no mesh facet found on the interface faces; refine the mesh.")
-        f1 = torque_load(model, lf, 1.0)
         fixed_dofs = model.basis.get_dofs(ff).all()
-        free = np.setdiff1d(np.arange(model.ndof), fixed_dofs)
-        Kff = model.K[free][:, free]
-        lu = _factorize(Kff, f"torque sensor {concept}: the fixed face does not hold the part.")
-        u1 = np.zeros(model.ndof)
-        u1[free] = lu.solve(f1[free])
-        react = model.K @ u1 - f1
-        react_err = max(react_err, abs(rot @ react + 1.0))
-        loaded_nodes = np.unique(model.mesh.facets[:, lf])
+        loaded_dofs = model.basis.get_dofs(lf).all()
+        held = np.union1d(fixed_dofs, loaded_dofs) if interface == "rigid" else fixed_dofs
+        free = np.setdiff1d(np.arange(model.ndof), held)
+        lu = _factorize(model.K[free][:, free], f"torque sensor {concept}: the fixed face does not hold the part.",
+                        symmetric=True)
+        if interface == "rigid":  # unit rigid rotation of the loaded face; the torque is its reaction
+            p = np.zeros(model.ndof)
+            p[loaded_dofs] = rot[loaded_dofs]
+            base = -(model.K @ p)
+        else:  # unit torque as shear traction on the loaded face
+            p, base = np.zeros(model.ndof), torque_load(model, lf, 1.0)
+
+        def solve(Kg=None, p=p, base=base, lu=lu, free=free, case=case):
+            u = p.copy()
+            u[free] = lu.solve(base[free])
+            if Kg is None:
+                return u
+            for it in range(60):  # (K + Kg) u = f by fixed point on K's factors
+                new = lu.solve(base[free] - (Kg @ u)[free])
+                dn = np.linalg.norm(new - u[free])
+                u[free] = new
+                if dn <= 1e-11 * np.linalg.norm(new):
+                    return u
+                if not np.isfinite(dn):
+                    break
+            raise ConvergenceError(
+                f"torque sensor {concept}: the stress-stiffened solve did not converge at {T:g} N m (case {case}): "
+                "the links are near buckling. Reduce torque or stiffen the links (link_width, neck_width), or "
+                "pass stress_stiffening=False.")
+
+        def reaction(u, dofs):  # moment about the axis of the reactions on ``dofs`` [N m]
+            return float(rot[dofs] @ (model.K @ u)[dofs])
+
+        u1 = solve()
+        if interface == "rigid":
+            m_loaded = reaction(u1, loaded_dofs)  # torsional stiffness [N m/rad]
+            react_err = max(react_err, abs(reaction(u1, fixed_dofs) + m_loaded) / m_loaded)
+            u1 = u1 / m_loaded  # per N m
+            case_twist = 1.0 / m_loaded
+        else:
+            react_err = max(react_err, abs(rot @ (model.K @ u1 - base) + 1.0))
+            case_twist = axial_rotation(model, u1, np.unique(model.mesh.facets[:, lf]))
         if case == "A":
-            twist_deg = math.degrees(axial_rotation(model, u1, loaded_nodes)) * T
-        Kg = _geometric_stiffness(model, u1)[free][:, free] if stress_stiffening else None
+            twist_deg = math.degrees(case_twist) * T
+        Kg1 = _geometric_stiffness(model, T * u1) if stress_stiffening else None
         for direction, sgn in (("CCW", 1.0), ("CW", -1.0)):
             u = sgn * T * u1
             if stress_stiffening:
-                uf0 = u[free].copy()
-                uf = uf0.copy()
-                for it in range(60):
-                    new = uf0 - lu.solve(sgn * T * (Kg @ uf))
-                    dn = np.linalg.norm(new - uf)
-                    uf = new
-                    if dn <= 1e-11 * np.linalg.norm(uf):
-                        break
-                    if not np.isfinite(dn) or it == 59:
-                        raise ConvergenceError(
-                            f"torque sensor {concept}: the stress-stiffened solve did not converge at {T:g} N m "
-                            f"({direction}, case {case}): the links are near buckling. Reduce torque or stiffen the "
-                            "links (link_width, neck_width), or pass stress_stiffening=False.")
-                u = np.zeros(model.ndof)
-                u[free] = uf
+                u = solve(sgn * Kg1)
+                if interface == "rigid":  # scale the unit rotation to the torque, now with K + Kg
+                    u *= sgn * T / float(rot[loaded_dofs] @ ((model.K + sgn * Kg1) @ u)[loaded_dofs])
+                else:
+                    u *= sgn * T
             sols[(case, direction)] = u
             vm = _von_mises_qp(model, u)
             vms[(case, direction)] = vm
@@ -214,7 +265,8 @@ def torque_sensor_analysis(concept: str = "final", torque: float = 140.0, mesh_s
             vm_max, where = float(masked[i]), (key, X[:, i[0], i[1]])
     bridge = gauges.assign(s=gauges.sign * gauges.strain).groupby(["case", "direction"])["s"].mean()
     cal = {dr: 1e3 * gauge_factor * abs(bridge.loc[("A", dr)]) / T for dr in ("CCW", "CW")}
-    checks = _geometry_checks(design, clearance, flatness_tol)
+    checks = (_geometry_checks(design, clearance, flatness_tol) if geometry_checks
+              else [dict(flatness=math.nan, planar=None, clearance=math.nan, reachable=None)])
     mat = model.material
     gstrain = float(np.abs(gauges.strain).max())
     metrics = dict(
@@ -226,26 +278,30 @@ def torque_sensor_analysis(concept: str = "final", torque: float = 140.0, mesh_s
         safety_factor=mat.yield_strength / vm_max if vm_max > 0 else math.inf,
         gauge_strain=gstrain, gauge_strain_bridge=float(np.abs(bridge).max()),
         strain_in_range=bool(min_gauge_strain <= gstrain <= max_gauge_strain),
-        gauge_planar=all(c["planar"] for c in checks), gauge_flatness=max(c["flatness"] for c in checks),
-        gauge_reachable=all(c["reachable"] for c in checks), gauge_clearance=min(c["clearance"] for c in checks),
+        gauge_planar=_all(c["planar"] for c in checks), gauge_flatness=max(c["flatness"] for c in checks),
+        gauge_reachable=_all(c["reachable"] for c in checks), gauge_clearance=min(c["clearance"] for c in checks),
         calibration_ccw=cal["CCW"], calibration_cw=cal["CW"],
         calibration_mismatch=abs(cal["CCW"] - cal["CW"]) / (0.5 * (cal["CCW"] + cal["CW"])),
-        case_mismatch=float(abs(abs(bridge.loc[("A", "CCW")]) - abs(bridge.loc[("B", "CCW")]))
-                            / abs(bridge.loc[("A", "CCW")])),
+        case_mismatch=(float(abs(abs(bridge.loc[("A", "CCW")]) - abs(bridge.loc[("B", "CCW")]))
+                             / abs(bridge.loc[("A", "CCW")])) if "B" in cases else math.nan),
         reaction_torque_error=float(react_err), mass=float(model.mass),
         time_mesh=t_mesh, time_solve=t_solve,
     )
     return SensorResult(metrics, gauges, model, design, sols, vms, X)
 
 
-def mesh_convergence(concept: str = "final", sizes=(0.004, 0.003, 0.002, 0.0015), **kw) -> pd.DataFrame:
+def mesh_convergence(concept: str = "final", sizes=(0.006, 0.005, 0.004, 0.003), *, verbose: bool = False,
+                     **kw) -> pd.DataFrame:
     """Gauge strain, max von Mises, stiffness and calibration on a sequence of meshes (coarse to
-    fine); columns ``*_rel`` are the differences from the finest mesh [-]."""
+    fine); columns ``*_rel`` are the differences from the finest mesh [-]. ``verbose`` prints each
+    row as it is done; ``kw`` go to :func:`torque_sensor_analysis`."""
     rows = []
     for h in sizes:
         m = torque_sensor_analysis(concept, mesh_size=h, **kw).metrics
-        rows.append({k: m[k] for k in ("mesh_size", "n_dofs", "gauge_strain", "max_von_mises", "stiffness",
-                                       "calibration_ccw", "time_solve")})
+        rows.append({k: m[k] for k in ("mesh_size", "n_dofs", "gauge_strain", "max_von_mises", "max_von_mises_radius_mm",
+                                       "stiffness", "calibration_ccw", "time_mesh", "time_solve")})
+        if verbose:
+            print(rows[-1], flush=True)
     df = pd.DataFrame(rows)
     for k in ("gauge_strain", "max_von_mises", "stiffness", "calibration_ccw"):
         df[k + "_rel"] = df[k] / df[k].iloc[-1] - 1.0

@@ -12,8 +12,22 @@ on the foam (~2 Hz), the heavy masses moving on their mounts (~30-40 Hz) and, hi
 frame's own modes, as in seed 001 Table 2 and Fig. 15.
 
 Values are not printed in seed 001: the masses, mount and pad stiffnesses and the tube section
-are chosen (documented in :data:`TORSO_DEFAULTS`) to give a ~50 kg torso of HyQ's size whose
-modes fall in the bands of Table 2; every one is a parameter.
+are chosen (documented in :data:`TORSO_DEFAULTS`); every one is a parameter. Tuned to Table 2
+(:func:`table2_comparison`, bench/torso_table2_tuning.py), within stated ranges:
+
+- ``pad_stiffness`` 1150 N/m per pad (range 300..10 000 N/m: soft foam blocks ~100 x 100 x 50 mm,
+  E ~ 2..50 kPa), shear half of it: the torso (35.4 kg) bounces at 1.80 Hz (Table 2: 1.8 / 2 Hz);
+- ``mount_stiffness`` 1.1e5 N/m per rubber mount (range 2e4..1e6 N/m, isolators for 5..20 kg
+  machines): the heavy masses' vertical modes at 32.7 and 39.2 Hz (Table 2: 32 / 30, 40 / 37 Hz);
+- tube 40 x 3 mm, masses motor 12 kg, pump 8 kg, tank 10 kg (HyQ ~80 kg, legs ~26 kg).
+
+Measured against Table 2's numerical column: +0.3 / +2.3 / -2.0 % for the first three rows; the three
+lowest frame modes (81.8, 86.7, 161.9 Hz) are -32 / -39 / +7 % off 120 / 143 / 152 Hz. A
+Nelder-Mead fit of eight parameters inside the ranges (the bench script) brings no robust gain:
+its best point (cost 0.08 against 0.41 here) sits where the frame/mount classification of
+two coupled modes flips, and rounding its values moves the frame rows by 25 %. The beam frame with
+masses on 12 mounts does not hold three frame modes in 120..152 Hz; the paper's tetrahedral model
+of the real frame (geometry not printed) does.
 """
 
 from __future__ import annotations
@@ -31,8 +45,8 @@ TORSO_DEFAULTS = dict(
     material="al6061-t6", element_length=0.05,
     motor_mass=12.0, pump_mass=8.0, tank_mass=10.0,  # [kg]
     motor_x=-0.25, pump_x=0.25, tank_x=0.0,  # [m] along the frame
-    mount_stiffness=1.2e5, mount_rot_stiffness=50.0,  # per mount [N/m], [N m/rad]
-    pad_stiffness=2.0e3, pad_shear_stiffness=1.0e3,  # per foam pad [N/m]
+    mount_stiffness=1.1e5, mount_rot_stiffness=50.0,  # per mount [N/m], [N m/rad]
+    pad_stiffness=1150.0, pad_shear_stiffness=575.0,  # per foam pad [N/m]
     damping=(0.05, 0.03, 0.01),  # modal damping: support, mounts, frame [-] (synthetic test)
 )
 TABLE2 = pd.DataFrame({"numerical [Hz]": [1.8, 32, 40, 120, 143, 152],
@@ -87,7 +101,8 @@ def _frame(p):
     for x in xc:
         for a, b_ in zip(ys[:-1], ys[1:], strict=True):
             if not any(np.isclose(x, xs)):
-                raise ModelError("torso n_cross must put cross members on beam nodes; use n_cross = 3, 5 or 9.")
+                raise ModelError(f"torso n_cross = {p['n_cross']!r} must put cross members on beam nodes (every "
+                                 f"element_length = {p['element_length']:g} m); with the defaults use 2, 3, 5, 6, 11 or 21.")
             elems.append((node(x, a), node(x, b_)))
     return BeamModel(np.array(nodes), np.array(elems), sec, p["material"], theory="timoshenko",
                      orientation=(0.0, 0.0, 1.0))
@@ -159,3 +174,38 @@ def torso_modal(n_modes: int = 30, **params) -> TorsoModal:
     eff["kind"] = kind
     eff.attrs["total_mass"] = mass_total
     return TorsoModal(f, phi, eff, kind, model, frame, p)
+
+
+def table2_modes(r: TorsoModal) -> np.ndarray:
+    """Indices (6,) of the FE modes that play the rows of seed 001 Table 2, in the table's order.
+
+    Row 1 (1.8 Hz numerical, 2 Hz measured): the torso bouncing on the foam, the support mode with
+    the largest vertical effective mass. Rows 2-3 (32 / 30 and 40 / 37 Hz): the two modes above
+    10 Hz with the largest vertical kinetic energy of the heavy masses (motor, pump, tank moving
+    up and down on their mounts: what a vertical hammer hit excites). Rows 4-6 (120 / 112,
+    143 / 145, 152 / 155 Hz): the three lowest frame modes. The pairing is ours: seed 001 prints
+    the frequencies and Fig. 15's four shapes, not which mode is which.
+    """
+    f = r.frequencies
+    support = [j for j, k in enumerate(r.kind) if k.startswith("support")]
+    bounce = max(support, key=lambda j: r.effective_mass["z [kg]"].iloc[j])
+    ke_z = sum(b["mass"] * r.shapes[b["dofs"][2]] ** 2 for b in r.model.bodies.values())
+    heavy = [j for j in np.argsort(-ke_z) if f[j] > 10.0][:2]
+    frame = [j for j, k in enumerate(r.kind) if k == "frame"][:3]
+    if len(heavy) < 2 or len(frame) < 3:
+        raise ModelError(f"torso: fewer than 2 heavy-mass and 3 frame modes among the {f.size} computed; "
+                         "pass a larger n_modes.")
+    return np.array([bounce, *sorted(heavy), *frame])
+
+
+def table2_comparison(r: TorsoModal) -> pd.DataFrame:
+    """The FE modes of :func:`table2_modes` next to seed 001 Table 2 (its numerical and its
+    experimental column) with the differences [%] (FE / paper - 1)."""
+    idx = table2_modes(r)
+    out = TABLE2.rename(columns={"numerical [Hz]": "paper numerical [Hz]", "experimental [Hz]": "paper experimental [Hz]"})
+    out.insert(0, "FE mode", idx + 1)
+    out.insert(1, "kind", [r.kind[j] for j in idx])
+    out.insert(2, "FE [Hz]", r.frequencies[idx])
+    out["vs numerical [%]"] = 100 * (out["FE [Hz]"] / out["paper numerical [Hz]"] - 1)
+    out["vs experimental [%]"] = 100 * (out["FE [Hz]"] / out["paper experimental [Hz]"] - 1)
+    return out

@@ -5,6 +5,13 @@ The "prototype" hammered here is the torso model with perturbed parameters (the 
 stiffer, the mounts 10 % softer, the frame tubes 5 % softer: what a real build differs by), so the
 comparison looks like Table 2 (differences of a few per cent); the identification itself is
 checked against the prototype's own modes (its error should be below 1 % in frequency).
+
+Measured (2026-11-25, ``proleg run torso-modal``): 13 modes identified; 12 within 0.5 % of the
+prototype's, among them all the Table 2 kinds: the bounce on the foam (1.982 Hz, -0.03 %), the heavy
+masses' vertical modes (31.1 and 37.4 Hz, +0.02 and +0.03 %) and the frame modes; damping within
+20 % except for modes of close pairs. Not met: one spurious pick at 67.9 Hz (+11.7 % from the
+prototype's 63.5 Hz mode it is paired with, MAC 0.81, damping 9 % for 3 %) in the cluster of
+heavy-mass modes at 62-76 Hz.
 """
 
 from __future__ import annotations
@@ -16,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-PROTOTYPE = dict(pad_stiffness=2.4e3, pad_shear_stiffness=1.2e3, mount_stiffness=1.08e5, tube_wall=0.00285)
+PROTOTYPE = dict(pad_stiffness=1380.0, pad_shear_stiffness=690.0, mount_stiffness=0.99e5, tube_wall=0.00285)
 CHANNELS = [(0.5, 0.25), (0.5, -0.25), (-0.5, 0.25), (-0.5, -0.25), (0.0, 0.25), (0.0, -0.25), (0.25, 0.25),
             (-0.25, -0.25)]  # accelerometers (z) on the frame [m]
 HAMMER = (0.5, 0.25)
@@ -95,7 +102,7 @@ def run_torso_modal(out_dir="results/torso-modal", *, n_hits: int = 5, f_max: fl
     """The torso-modal scenario; returns the HTML report path."""
     from ..identify.hammer import comparison_table, modal, synthetic_hammer_test
     from ..report.html import Report
-    from .torso import TABLE2, TORSO_DEFAULTS, torso_modal
+    from .torso import TORSO_DEFAULTS, table2_comparison, table2_modes, torso_modal
 
     t0 = time.perf_counter()
     out = Path(out_dir)
@@ -116,11 +123,13 @@ def run_torso_modal(out_dir="results/torso-modal", *, n_hits: int = 5, f_max: fl
     strength = np.abs(fe.shapes[fhit] * fe.shapes[fe_dofs]).max(axis=0) / (2 * zfe)
     cand = [i for i in np.argsort(strength)[::-1] if fe.frequencies[i] < f_max and fe.frequencies[i] > 1.0
             and strength[i] >= 0.02 * strength.max()]
-    guess = []
+    # plus the modes of seed 001 Table 2 (the bounce and the heavy masses' vertical modes are weak
+    # in accelerance: mass-normalised over 35 kg, against a few kg of frame) -- what the test looks for
+    guess = [int(i) for i in table2_modes(fe) if fe.frequencies[i] < f_max]
     for i in cand:
         if all(abs(fe.frequencies[i] / fe.frequencies[j] - 1) > 0.04 for j in guess):
             guess.append(i)
-    ident = modal(t, F, A, f_range=(1.0, f_max), f_guess=np.sort(fe.frequencies[guess]), band=0.1)
+    ident = modal(t, F, A, f_range=(1.0, f_max), f_guess=np.sort(fe.frequencies[guess]), band=0.12)
     fband = fe.frequencies < f_max
     table, M = comparison_table(fe.frequencies[fband], fe.shapes[fe_dofs][:, fband], ident.frequencies, ident.shapes)
     truth, Mt = comparison_table(proto.frequencies[band], proto.shapes[dofs][:, band], ident.frequencies, ident.shapes)
@@ -135,6 +144,8 @@ def run_torso_modal(out_dir="results/torso-modal", *, n_hits: int = 5, f_max: fl
     summary = {"fe_frequencies_hz": fe.frequencies[:12].tolist(), "identified_hz": ident.frequencies.tolist(),
                "identified_damping": ident.damping.tolist(), "total_mass_kg": fe.effective_mass.attrs["total_mass"],
                "max_identification_error_pct": float(np.abs(table["identification error [%]"]).max()),
+               "table2": table2_comparison(fe)[["FE [Hz]", "paper numerical [Hz]", "paper experimental [Hz]"]]
+               .to_dict("list"),
                "wall_s": time.perf_counter() - t0}
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
 
@@ -160,7 +171,11 @@ def run_torso_modal(out_dir="results/torso-modal", *, n_hits: int = 5, f_max: fl
         "noise 1e-4 of full scale. H1 with averaging over the hits, peak picking on the detrended mode indicator, "
         "least-squares modal fit (proleg.identify.modal).")
     rep.add_figure(frf_figure(ident, fe.frequencies[fband]), "H1 FRFs and coherence.")
-    rep.add_table(TABLE2, "Seed 001 Table 2 (for reference).")
+    t2 = table2_comparison(fe)
+    t2.to_parquet(out / "table2_comparison.parquet")
+    rep.add_table(t2, "The nominal FE model against seed 001 Table 2: its numerical column (the paper's tetrahedral "
+                  "model) and its experimental column (the hammer test); FE modes paired by kind "
+                  "(proleg.robots.torso.table2_modes).", float_format="{:.4g}")
     rep.add_table(table, "Table 2-style comparison: FE (nominal model) against the identified modes of the prototype, "
                   "paired by MAC; the identification error is against the prototype's true modes.",
                   float_format="{:.4g}")
