@@ -28,8 +28,9 @@ DEFAULT_TIMEOUT_S = 10.0  # connecting to a scheduler address
 class Job:
     """What a worker needs to evaluate a batch (pickled with cloudpickle)."""
 
-    def __init__(self, target, is_builder, names, outputs, simulate_kw, apply=None):
+    def __init__(self, target, is_builder, names, outputs, simulate_kw, apply=None, kind=None):
         self.target, self.is_builder, self.names = target, is_builder, list(names)
+        self.kind = kind or ("builder" if is_builder else "system")
         self.outputs, self.simulate_kw, self.apply = dict(outputs), dict(simulate_kw), apply
 
 
@@ -71,7 +72,12 @@ def _outputs_of(job, res, i) -> tuple[dict, str, str]:
     nan = {k: math.nan for k in job.outputs}
     if st != Status.SUCCESS:
         return nan, st.name.lower(), f"{st.describe()} at t = {res.fail_time[i]:.6g} s"
-    r = res[i]
+    return _extract(job, res[i])
+
+
+def _extract(job, r) -> tuple[dict, str, str]:
+    """({output: value}, status, reason) of one evaluated variant ``r`` (a Result, or what a
+    function study's function returned)."""
     out, status, reason = {}, "success", ""
     for name, fn in job.outputs.items():
         try:
@@ -91,6 +97,8 @@ def evaluate_batch(job: Job, rows: list[tuple[str, dict]], *, workers: int = 1, 
     from ..analyses.sweep import sweep
 
     batch, worker = uuid.uuid4().hex[:12], _worker_name()
+    if job.kind == "function":
+        return _evaluate_functions(job, rows, batch, worker)
     t0 = time.perf_counter()
     out: dict[str, dict] = {}
     groups: dict[str, tuple] = {}
@@ -135,6 +143,24 @@ def evaluate_batch(job: Job, rows: list[tuple[str, dict]], *, workers: int = 1, 
         r.setdefault("fail_time", math.nan)
         r["finished_at"] = time.time()
     return rows_out
+
+
+def _evaluate_functions(job: Job, rows, batch, worker) -> list[dict]:
+    """A function study's batch: one call per variant, each row timed on its own."""
+    out = []
+    for key, vals in rows:
+        t0 = time.perf_counter()
+        row = _row(key, vals, batch, worker)
+        try:
+            value = job.target(**vals)
+        except Exception as exc:  # the row records the error; the study goes on
+            row.update({k: math.nan for k in job.outputs}, status="error", reason=f"{type(exc).__name__}: {exc}")
+        else:
+            vals_out, status, reason = _extract(job, value)
+            row.update(vals_out, status=status, reason=reason)
+        row.update(wall_s=time.perf_counter() - t0, steps=0, newton_iterations=0, fail_time=math.nan, finished_at=time.time())
+        out.append(row)
+    return out
 
 
 def run_payload(payload: bytes) -> list[dict]:

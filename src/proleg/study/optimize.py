@@ -209,8 +209,8 @@ def refine(study, start: dict, objective: str, *, direction="minimize", maxiter:
     import jax
     from scipy.optimize import minimize
 
-    if study.is_builder:
-        raise ModelError("refine: a builder study is not differentiable through its builder; refine needs a System study.")
+    if study.kind != "system":
+        raise ModelError(f"refine: a {study.kind} study is not differentiable through its {study.kind}; refine needs a System study.")
     if objective not in study.outputs:
         raise ModelError(f"refine: objective '{objective}' is not an output; outputs: {list(study.outputs)}.")
     names = study.space.continuous

@@ -129,11 +129,13 @@ def study_report(store, path=None, *, pareto: tuple[str, str] | None = None) -> 
     params = [p for p in params if df[p].nunique() > 1]
     outputs = _numeric(df, list(definition["outputs"])) if len(df) else []
     status = st.status()
-    rep = Report(f"Study: {definition['target'].get('model') or definition['target'].get('builder')}", f"store {Path(store).resolve()}")
+    tgt = definition["target"]
+    rep = Report(f"Study: {tgt.get('model') or tgt.get('builder') or tgt.get('function')}", f"store {Path(store).resolve()}")
     rep.add_key_values({"variants stored": status["rows"], "succeeded": status["done"], "failed": status["failed"],
                         "pending": status["pending"], "duplicates": status["duplicates"]}, "Status")
     rep.add_table(pd.DataFrame([{"parameter": k, "kind": v[0], "values": json.dumps(v[1:])} for k, v in definition["space"].items()]), "Space")
-    rep.add_key_values(definition["simulate"], "Simulation options")
+    if definition["simulate"]:
+        rep.add_key_values(definition["simulate"], "Simulation options")
     if len(df) and params and outputs:
         rep.add_figure(scatter_figure(df, params, outputs), "Each output against each parameter (red crosses: failed variants).")
         if len(params) + len(outputs) >= 2 and (df["status"] == "success").sum() > 1:

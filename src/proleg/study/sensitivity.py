@@ -91,8 +91,8 @@ def local_sensitivity(study, at: dict | None = None, *, outputs=None) -> pd.Data
     from ..assembly.system import System
     from .space import LogRange
 
-    if study.is_builder:
-        raise ModelError("local_sensitivity: needs a System study (a builder is not differentiable).")
+    if study.kind != "system":
+        raise ModelError(f"local_sensitivity: needs a System study (a {study.kind} study is not differentiable through its {study.kind}).")
     names = study.space.continuous
     if not names:
         raise ModelError("local_sensitivity: the space has no continuous parameter.")

@@ -13,6 +13,10 @@ the outputs, ``status`` ("success", the solver's status such as "step_too_small"
 "output_error", "build_error" or "error") with ``reason``, ``wall_s`` (the batch's wall time
 per variant [s], its compilation included), ``steps``, ``newton_iterations``, ``fail_time`` [s],
 ``worker`` and ``batch``. Rerunning with the same store skips every variant already stored.
+
+A study of a plain function (an FE solve, an analytic model, anything that is not a
+simulation) is made with :meth:`Study.function`: the same designs, executors, store, resume,
+optimisation and Sobol indices, each variant one call ``fn(**params)``.
 """
 
 from __future__ import annotations
@@ -32,7 +36,7 @@ from .design import make_design
 from .space import Choice, Fixed, Space
 from .store import Store, variant_key
 
-EXECUTORS = ("vmap", "processes", "dask")
+EXECUTORS = ("vmap", "processes", "dask", "local")  # "local": in this process, one variant after another
 RESERVED = ("key", "status", "reason", "wall_s", "worker", "batch", "steps", "newton_iterations", "fail_time", "finished_at")
 
 
@@ -79,9 +83,12 @@ class Study:
         to the System (default ``System.with_params``), for derived parameters
     """
 
+    kind = "system"  # "system", "builder" or "function" (Study.function)
+
     def __init__(self, system_or_builder, space, outputs, simulate=None, *, apply=None, name: str | None = None):
         self.target = system_or_builder
         self.is_builder = not isinstance(system_or_builder, System)
+        self.kind = "builder" if self.is_builder else "system"
         if self.is_builder and not callable(system_or_builder):
             raise ModelError(f"Study: expected a System or a builder function; got {type(system_or_builder).__name__}.")
         self.space = Space(space)
@@ -105,17 +112,54 @@ class Study:
             raise ModelError("Study: simulate needs t_end [s], e.g. simulate=dict(t_end=1.0, dt_output=0.01).")
         self.name = name or (getattr(system_or_builder, "topo", None) and system_or_builder.topo.name) or getattr(system_or_builder, "__name__", "study")
 
+    @classmethod
+    def function(cls, fn, space, outputs, *, name: str | None = None) -> Study:
+        """A study of ``fn(**params)`` — an FE solve, a closed form, any evaluation that is not a
+        simulation — with the designs, executors, store, resume, :meth:`optimize` and
+        :meth:`sobol` of a simulation study. ``outputs``: a list of names (keys of the mapping
+        or attributes of the object ``fn`` returns) or {name: function(returned value) -> float}.
+        A call that raises is a row with status "error" and the reason; the study goes on.
+        ``fn`` must be picklable by cloudpickle for the "processes" and "dask" executors
+        (the default is "processes"; "local" runs in this process).
+
+        Example::
+
+            st = pl.study.Study.function(lambda a, b: {"f": (a - 1) ** 2 + b}, {"a": (0.0, 2.0), "b": [0.0, 1.0]}, ["f"])
+            best = st.optimize("f", n_trials=20, executor="local")
+        """
+        if not callable(fn) or isinstance(fn, System):
+            raise ModelError(f"Study.function: expected a function of the parameters; got {type(fn).__name__} (a System study is Study(system, ...)).")
+        if isinstance(outputs, (list, tuple)):
+            if not outputs or not all(isinstance(o, str) for o in outputs):
+                raise ModelError(f"Study.function: outputs must be names (strings) or {{name: function}}; got {outputs!r}.")
+            outputs = {o: _Pick(o) for o in outputs}
+        self = cls.__new__(cls)
+        self.target, self.is_builder, self.kind, self.apply, self.simulate = fn, False, "function", None, {}
+        self.space = Space(space)
+        if not isinstance(outputs, dict) or not outputs:
+            raise ModelError("Study.function: give at least one output name, e.g. outputs=['stiffness'].")
+        for k, f in outputs.items():
+            if not callable(f):
+                raise ModelError(f"Study.function: output '{k}' is not a name or a function of the returned value (got {type(f).__name__}).")
+            if k in RESERVED or k in self.space.dims:
+                raise ModelError(f"Study.function: output name '{k}' clashes with a column ({'reserved' if k in RESERVED else 'a parameter'}); rename it.")
+        self.outputs = dict(outputs)
+        self.name = name or getattr(fn, "__name__", "study")
+        return self
+
     # -- definition ------------------------------------------------------------------------
     def definition(self) -> dict:
         """What makes two studies the same (compared on resume)."""
-        if self.is_builder:
+        if self.kind == "function":
+            target = {"function": getattr(self.target, "__qualname__", repr(self.target)), "code": code_hash(self.target)}
+        elif self.is_builder:
             target = {"builder": getattr(self.target, "__qualname__", repr(self.target)), "code": code_hash(self.target)}
         else:
             target = system_fingerprint(self.target)
         d = {
             "target": target,
             "space": self.space.spec(),
-            "outputs": {k: code_hash(fn) for k, fn in self.outputs.items()},
+            "outputs": {k: (fn.name if isinstance(fn, _Pick) else code_hash(fn)) for k, fn in self.outputs.items()},
             "simulate": {k: (v if isinstance(v, (int, float, str, bool, type(None))) else repr(v)) for k, v in self.simulate.items()},
         }
         if self.apply is not None:
@@ -152,7 +196,7 @@ class Study:
         if "key" not in table.columns:
             table = table.copy()
             table.insert(0, "key", [variant_key({k: r[k] for k in self.space.dims}) for r in table.to_dict("records")])
-        executor = executor or ("processes" if self.is_builder else "vmap")
+        executor = executor or ("processes" if self.kind != "system" else "vmap")
         if not isinstance(executor, str) or executor not in EXECUTORS:
             raise ModelError(f"Study: unknown executor {executor!r}; valid: {list(EXECUTORS)}.")
         st = Store(store).open(self.definition()) if store is not None else None
@@ -180,9 +224,9 @@ class Study:
         bs = int(batch_size) if batch_size else default_batch_size(len(todo), workers)
         batches = [todo[i : i + bs] for i in range(0, len(todo), bs)]
         names = list(self.space.dims)
-        job = ex.Job(self.target, self.is_builder, names, self.outputs, self.simulate, self.apply)
+        job = ex.Job(self.target, self.is_builder, names, self.outputs, self.simulate, self.apply, kind=self.kind)
         client = owned = None
-        if executor == "vmap":
+        if executor in ("vmap", "local"):
             gen = ex.run_vmap(job, batches, workers=workers)
         elif executor == "processes":
             gen = ex.run_processes(job, batches, workers=workers)
@@ -237,6 +281,22 @@ class Study:
 
     def __repr__(self):
         return f"Study({self.name!r}: {list(self.space.dims)} -> {list(self.outputs)})"
+
+
+class _Pick:
+    """Output ``name`` of a function study: ``value[name]`` of a mapping, else ``value.name``
+    (``value.metrics[name]`` for proleg's analysis objects)."""
+
+    def __init__(self, name):
+        self.name = name
+
+    def __call__(self, value):
+        if isinstance(value, dict):
+            return value[self.name]
+        metrics = getattr(value, "metrics", None)
+        if isinstance(metrics, dict) and self.name in metrics:
+            return metrics[self.name]
+        return getattr(value, self.name)
 
 
 class _Bar:
