@@ -25,19 +25,17 @@ stiffness constraints are slack. The earlier defaults (neck 4 x 10 mm, r_link 11
 gave 0.12 %, twice the limit, and the earlier space reached 0.06 % only at its corners -- hence
 no feasible trial.
 
-Running: optuna asks ``workers`` trials at a time; they are solved in spawned worker processes
-(SuperLU is single-threaded, so two processes use both cores), and told back. With a ``store``
-folder the trials live in ``STORE/optuna.db`` (resumable: a rerun continues, trials asked but
-never told are evaluated again) and every evaluated design is a row of a
-:class:`proleg.study.Store` Parquet dataset (``STORE/rows``), found there by its key on a rerun
-and not solved again. :class:`proleg.study.Study` itself evaluates Systems by simulation (its
-executors call :func:`proleg.sweep`), so an FE solve cannot run through ``Study.optimize``; this
-module uses its store and the same optuna conventions.
+Running: a :meth:`proleg.study.Study.function` study of :func:`search_design` optimised by
+:meth:`~proleg.study.Study.optimize` (optuna TPE, ``workers`` trials per batch, solved in the
+"processes" executor's spawned workers — SuperLU is single-threaded, so two processes use both
+cores — and told back). With a ``store`` folder the trials live in ``STORE/optuna.db``
+(resumable: a rerun continues, trials asked but never told are evaluated again) and every
+evaluated design is a row of the study's Parquet store (``STORE/rows``), found there by its key
+on a rerun and not solved again.
 """
 
 from __future__ import annotations
 
-import contextlib
 import json
 import math
 import time
@@ -89,46 +87,14 @@ SEARCH_NOTE = ("maximise the gauge strain subject to strain <= 0.06 %, von Mises
 CONSTRAINTS = ("c_strain", "c_yield", "c_stiffness", "c_reach")
 
 
-def _evaluate_all(todo, pool, kw):
-    if pool is None or len(todo) <= 1:
-        return [evaluate_design(p, **kw) for p in todo]
-    return list(pool.map(evaluate_design, todo, *[[kw[k]] * len(todo) for k in ("torque", "search_mesh", "limits")]))
-
-
-def _search(ost, pending, pool, workers, n_trials, dists, known, st, kw, new_api):
-    """Ask, solve and tell until the study holds ``n_trials`` finished trials."""
-    import optuna
-
-    from ..study.store import variant_key
-
-    TS = optuna.trial.TrialState
-    while True:
-        told = sum(t.state.is_finished() for t in ost.get_trials(deepcopy=False))
-        if not pending:
-            pending = [ost.ask(dists) for _ in range(min(workers, n_trials - told))]
-            if not pending:
-                break
-        params = [{k: t.params[k] for k in SPACE} for t in pending]
-        todo = [p for p in params if variant_key(p) not in known]
-        new = _evaluate_all(todo, pool, kw)
-        if st is not None:
-            st.write(new)
-        known.update({r["key"]: r for r in new})
-        for t, p in zip(pending, params):
-            row = known[variant_key(p)]
-            t.set_user_attr("key", row["key"])
-            if row["status"] != "success":
-                t.set_user_attr("error", row["reason"])
-                ost.tell(t, state=TS.FAIL)
-                continue
-            cv = [float(row[c]) for c in CONSTRAINTS]  # feasible when all <= 0
-            t.set_user_attr("constraints", cv)
-            for c, v in zip(CONSTRAINTS, cv) if new_api else ():
-                t.set_constraint(c, v)
-            for k in OUTPUTS:
-                t.set_user_attr(k, float(row[k]))
-            ost.tell(t, float(row["gauge_strain"]))
-        pending = []
+def search_design(link_width, neck_ratio, r_link, thickness, *, torque, search_mesh, max_strain, safety, min_stiffness) -> dict:
+    """The optimisation's evaluation as a function of the study's parameters (fixed ones included):
+    :func:`evaluate_design`'s outputs and constraint values; an invalid geometry raises."""
+    row = evaluate_design(dict(link_width=link_width, neck_ratio=neck_ratio, r_link=r_link, thickness=thickness),
+                          torque=torque, search_mesh=search_mesh, limits=(max_strain, safety, min_stiffness))
+    if row["status"] != "success":
+        raise ModelError(row["reason"])
+    return {k: float(row[k]) for k in (*OUTPUTS, *CONSTRAINTS)}
 
 
 @dataclass
@@ -162,50 +128,34 @@ def optimize_sensor(store=None, n_trials: int = 16, *, workers: int = 2, max_gau
     min_stiffness : [N m/deg]     torsional stiffness bound (140: the text's 1 deg at 140 N m)
     search_mesh : [m]             element size of the search solves (gauge regions at half)
     """
-    import optuna
-
-    from ..study.store import Store
+    from ..study import Store, Study
+    from .torque_sensor import DEFAULTS
 
     if not (isinstance(n_trials, int) and n_trials >= 1):
         raise ModelError(f"optimize_sensor n_trials = {n_trials!r} must be a positive integer.")
     if not (isinstance(workers, int) and workers >= 1):
         raise ModelError(f"optimize_sensor workers = {workers!r} must be a positive integer.")
-    limits = (float(max_gauge_strain), float(safety), float(min_stiffness))
-    kw = dict(torque=float(torque), search_mesh=float(search_mesh), limits=limits)
-    definition = {"problem": "torque sensor, final concept: max gauge strain", "space": SPACE, **kw, "seed": seed}
-    st = storage = None
-    if store is not None:
-        st = Store(store).open(definition)
-        storage = f"sqlite:///{Path(store).resolve() / 'optuna.db'}"
-    optuna.logging.set_verbosity(optuna.logging.WARNING)
-    TS = optuna.trial.TrialState
-    new_api = hasattr(optuna.trial.Trial, "set_constraint")  # optuna >= 5; older: constraints_func
-    cf = None if new_api else (lambda t: t.user_attrs.get("constraints", [1.0]))
-    sampler = optuna.samplers.TPESampler(seed=seed, n_startup_trials=min(8, max(2, n_trials // 2)),
-                                         constraints_func=cf)
-    ost = optuna.create_study(study_name="torque-sensor-final", storage=storage, direction="maximize",
-                              sampler=sampler, load_if_exists=True)
-    dists = {k: optuna.distributions.FloatDistribution(lo, hi) for k, (lo, hi) in SPACE.items()}
-    if not ost.trials:  # the first trial is the default design
-        from .torque_sensor import DEFAULTS
-
-        d = DEFAULTS["final"]
-        ost.enqueue_trial(dict(link_width=d["link_width"], neck_ratio=d["neck_width"] / d["link_width"],
-                               r_link=d["r_link"], thickness=d["thickness"]))
-    stored = st.read() if st is not None else pd.DataFrame()
-    known = {r["key"]: r for r in stored.to_dict("records")} if len(stored) else {}
-    pending = [optuna.trial.Trial(ost, t._trial_id) for t in ost.get_trials(deepcopy=False) if t.state == TS.RUNNING]
-    with contextlib.ExitStack() as stack:
-        pool = None
-        if workers > 1:  # spawned (not forked) workers, kept for the whole search
-            import multiprocessing as mp
-            from concurrent.futures import ProcessPoolExecutor
-
-            pool = stack.enter_context(ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn")))
-        _search(ost, pending, pool, workers, n_trials, dists, known, st, kw, new_api)
-    keys = [t.user_attrs.get("key") for t in ost.trials]
-    rows = pd.DataFrame([{"trial": t.number, **known[k]} for t, k in zip(ost.trials, keys) if k in known])
-    ok = rows[rows.status == "success"]
+    fixed = dict(torque=float(torque), search_mesh=float(search_mesh), max_strain=float(max_gauge_strain),
+                 safety=float(safety), min_stiffness=float(min_stiffness))
+    study = Study.function(search_design, {**SPACE, **fixed}, [*OUTPUTS, *CONSTRAINTS], name="torque-sensor-final")
+    d = DEFAULTS["final"]
+    start = dict(link_width=d["link_width"], neck_ratio=d["neck_width"] / d["link_width"], r_link=d["r_link"],
+                 thickness=d["thickness"])  # the first trial is the default design
+    opt = study.optimize("gauge_strain", lambda row: [row[c] for c in CONSTRAINTS], n_trials, direction="maximize",
+                         seed=seed, batch=workers, executor="processes" if workers > 1 else "local", workers=workers,
+                         store=store, enqueue=[start], n_startup_trials=min(8, max(2, n_trials // 2)), progress=False)
+    ost = opt.optuna_study
+    known = Store(store).read() if store is not None else opt.rows
+    known = {r["key"]: r for r in known.to_dict("records")}
+    rows = []
+    for t in ost.trials:
+        r = known.get(t.user_attrs.get("key"))
+        if r is not None:
+            r = {"trial": t.number, **r}
+            r["feasible"] = r["status"] == "success" and all(r[c] <= 0 for c in CONSTRAINTS)
+            rows.append(r)
+    rows = pd.DataFrame(rows)
+    ok = rows[rows.status == "success"] if len(rows) else rows
     cand = ok[ok.feasible.astype(bool)] if len(ok) and ok.feasible.astype(bool).any() else ok
     if not len(cand):
         raise ModelError("optimize_sensor: no trial gave a valid design; check SPACE and the limits.")

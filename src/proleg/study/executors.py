@@ -183,11 +183,35 @@ def run_vmap(job, batches, *, workers):
         yield evaluate_batch(job, rows, workers=min(workers, len(group)), batch_size=bs)
 
 
-def run_processes(job, batches, *, workers, retries: int = 2):
-    """Local worker processes (spawned: JAX is not fork-safe). A pool broken by a killed
-    worker is restarted and the batches not yet returned are run again (``retries`` times)."""
+_POOLS: dict = {}
+
+
+def process_pool(workers: int):
+    """This process's pool of ``workers`` spawned worker processes (JAX is not fork-safe), kept
+    between studies and between an optimisation's batches so that each worker imports proleg and
+    compiles once; a broken pool is replaced. :func:`shutdown_pools` (also at exit) ends them."""
+    import atexit
     import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures import ProcessPoolExecutor
+
+    pool = _POOLS.get(workers)
+    if pool is None or getattr(pool, "_broken", False) or getattr(pool, "_shutdown_thread", False):
+        if not _POOLS:
+            atexit.register(shutdown_pools)
+        pool = _POOLS[workers] = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"))
+    return pool
+
+
+def shutdown_pools() -> None:
+    """End the worker processes of the "processes" executor."""
+    while _POOLS:
+        _POOLS.popitem()[1].shutdown(wait=False, cancel_futures=True)
+
+
+def run_processes(job, batches, *, workers, retries: int = 2):
+    """Local worker processes (:func:`process_pool`). A pool broken by a killed worker is
+    replaced and the batches not yet returned are run again (``retries`` times)."""
+    from concurrent.futures import as_completed
     from concurrent.futures.process import BrokenProcessPool
 
     import cloudpickle
@@ -197,13 +221,14 @@ def run_processes(job, batches, *, workers, retries: int = 2):
         if not pending:
             return
         try:
-            with ProcessPoolExecutor(max_workers=min(workers, len(pending)), mp_context=mp.get_context("spawn")) as pool:
-                futs = {pool.submit(run_payload, cloudpickle.dumps((job, b))): i for i, b in pending.items()}
-                for f in as_completed(futs):
-                    rows = f.result()
-                    del pending[futs[f]]
-                    yield rows
+            pool = process_pool(workers)
+            futs = {pool.submit(run_payload, cloudpickle.dumps((job, b))): i for i, b in pending.items()}
+            for f in as_completed(futs):
+                rows = f.result()
+                del pending[futs[f]]
+                yield rows
         except BrokenProcessPool:
+            _POOLS.pop(workers, None)
             if attempt == retries:
                 raise ModelError(f"Study: the worker processes died {retries + 1} times; {len(pending)} batches were not run (they stay pending in the store).") from None
 

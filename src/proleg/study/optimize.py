@@ -67,12 +67,15 @@ def _constraint_values(constraints, row) -> list[float]:
 
 
 def optimize(study, objective, constraints=None, n_trials: int = 50, *, sampler="tpe", direction="minimize",
-             seed: int | None = 0, batch: int = 4, executor=None, store=None, storage=None, progress=None, **run_kw) -> OptimizationResult:
+             seed: int | None = 0, batch: int = 4, executor=None, store=None, storage=None, progress=None, enqueue=None,
+             n_startup_trials: int | None = None, **run_kw) -> OptimizationResult:
     """Optimise ``objective`` (an output name, a function of a row, or a list of them for a
     Pareto front) over the study's space in ``n_trials`` trials, ``batch`` trials per executor
     batch. ``constraints``: {output: ("<=", value) | (">=", value)} or a function of a row
     returning values that are feasible when ≤ 0 (optuna's constraints_func; TPE and NSGA-II).
-    ``sampler``: "tpe", "cmaes", "nsga2" or an optuna sampler."""
+    ``sampler``: "tpe", "cmaes", "nsga2" or an optuna sampler. ``enqueue``: parameter dicts
+    evaluated as the first trials of a new optimisation (e.g. the current design);
+    ``n_startup_trials``: TPE's random trials before it models (default n_trials / 3, 2 to 10)."""
     import optuna
 
     objs = list(objective) if isinstance(objective, (list, tuple)) else [objective]
@@ -91,7 +94,8 @@ def optimize(study, objective, constraints=None, n_trials: int = 50, *, sampler=
     cf = (lambda t: t.user_attrs.get("constraints", [0.0])) if constraints is not None and not new_api else None
     if isinstance(sampler, str):
         if sampler == "tpe":
-            smp = optuna.samplers.TPESampler(seed=seed, constraints_func=cf, n_startup_trials=min(10, max(2, n_trials // 3)))
+            n0 = n_startup_trials if n_startup_trials is not None else min(10, max(2, n_trials // 3))
+            smp = optuna.samplers.TPESampler(seed=seed, constraints_func=cf, n_startup_trials=n0)
         elif sampler == "cmaes":
             if constraints is not None:
                 raise ModelError("optimize: optuna's CMA-ES sampler takes no constraints; use sampler='tpe' (or 'nsga2').")
@@ -112,6 +116,9 @@ def optimize(study, objective, constraints=None, n_trials: int = 50, *, sampler=
         storage = f"sqlite:///{Path(store).resolve() / 'optuna.db'}"
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     ost = optuna.create_study(storage=storage, sampler=smp, study_name=name, directions=dirs, load_if_exists=True)
+    if enqueue and not ost.trials:
+        for p in enqueue:
+            ost.enqueue_trial(dict(p))
     dists = _distributions(study.space)
     fixed = {k: d.value for k, d in study.space.dims.items() if isinstance(d, Fixed)}
     TS = optuna.trial.TrialState
