@@ -310,7 +310,7 @@ def _reduced_start(dyn, q, v, qdd, lam, z0):
     """The consistent absolute start (q, v, q̈, λ) in the coordinates ``dyn`` (x, ẋ, ẍ, λ_x) and
     the HHT history term g = Φ_xᵀλ_x − Q = −M ẍ."""
     x, xd = dyn.reduce(q, v)
-    xdd = dyn.reduce_acceleration(x, xd, qdd)
+    xdd = dyn.reduce_acceleration(x, xd, qdd, q)
     return x, xd, xdd, dyn.reduce_multipliers(lam), -dyn.mass_action(x, xdd)
 
 
