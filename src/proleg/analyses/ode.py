@@ -47,18 +47,18 @@ def _start(dyn, q, v):
 _absolute = jax.jit(jax.vmap(lambda dyn, x, u: dyn.absolute(x, u), in_axes=(None, 0, 0)))
 
 
-def _run_free(integrator, dyn, y0, z, times, dt_max, fixed_step):
-    ys, ns, nr, ok = ode.solve(integrator, dyn, y0, z, times[0], times[-1], ts=times, dt_max=dt_max, fixed_step=fixed_step)
+def _run_free(integrator, dyn, y0, z, times, tol, h, dt_max, fixed):
+    ys, ns, nr, ok = ode.solve(integrator, dyn, y0, z, times[0], times[-1], tol, ts=times, dt0=h, dt_max=dt_max, fixed=fixed)
     return ys, jnp.broadcast_to(z, (times.shape[0],) + z.shape), ns, nr, ok
 
 
-def _run_sampled(integrator, dyn, y0, z0, grid, tick, dt_max, fixed_step):
+def _run_sampled(integrator, dyn, y0, z0, grid, tick, tol, h, dt_max, fixed):
     """Sample to sample (and output to output): one solve per interval of ``grid``; at a tick
     the controllers sample the state reached."""
 
     def seg(c, k):
         y, z, ns, nr, ok = c
-        ys, a, b, good = ode.solve(integrator, dyn, y, z, grid[k], grid[k + 1], dt_max=dt_max, fixed_step=fixed_step)
+        ys, a, b, good = ode.solve(integrator, dyn, y, z, grid[k], grid[k + 1], tol, dt0=h, dt_max=dt_max, fixed=fixed)
         y = jax.tree_util.tree_map(lambda w: w[-1], ys)
         q, v = dyn.absolute(y[0], y[1])
         z = jnp.where(tick[k + 1], sample_controllers(dyn.system, grid[k + 1], q, v, z), z)
@@ -70,8 +70,8 @@ def _run_sampled(integrator, dyn, y0, z0, grid, tick, dt_max, fixed_step):
     return ys, jnp.concatenate([z0[None], zs]), ns, nr, ok
 
 
-_run_free_jit = jax.jit(_run_free, static_argnums=(0, 5, 6))
-_run_sampled_jit = jax.jit(_run_sampled, static_argnums=(0, 6, 7))
+_run_free_jit = jax.jit(_run_free, static_argnums=(0, 7, 8))
+_run_sampled_jit = jax.jit(_run_sampled, static_argnums=(0, 8, 9))
 
 
 def simulate_ode(system, t_end, dt_output=None, *, t0=0.0, output_times=None, integrator, q0=None, v0=None, dt_max=None, fixed_step=None, throw=True):
@@ -97,14 +97,18 @@ def simulate_ode(system, t_end, dt_output=None, *, t0=0.0, output_times=None, in
     y0 = (x, u, jnp.zeros(2, x.dtype))
     times_j = jnp.asarray(np.concatenate([[t0], times[times > t0]]) if times[0] > t0 else times)
     Ts = sample_period(system)
+    fixed = fixed_step is not None
+    h = None if not fixed else jnp.asarray(fixed_step, jnp.float64)
     if Ts is None:
-        ys, zs, ns, nr, ok = _run_free_jit(integrator, dyn, y0, z0, times_j, dt_max, fixed_step)
+        ys, zs, ns, nr, ok = _run_free_jit(integrator.static, dyn, y0, z0, times_j, integrator.tol, h, dt_max, fixed)
         keep = np.arange(times_j.shape[0])
     else:
         ticks = t0 + Ts * np.arange(1, int(math.floor((times[-1] - t0) / Ts + 1e-9)) + 1)
         grid = np.unique(np.concatenate([np.asarray(times_j), ticks]).round(12))
         is_tick = np.isin(grid.round(12), ticks.round(12))
-        ys, zs, ns, nr, ok = _run_sampled_jit(integrator, dyn, y0, z0, jnp.asarray(grid), jnp.asarray(is_tick), dt_max, fixed_step)
+        ys, zs, ns, nr, ok = _run_sampled_jit(
+            integrator.static, dyn, y0, z0, jnp.asarray(grid), jnp.asarray(is_tick), integrator.tol, h, dt_max, fixed
+        )
         keep = np.flatnonzero(np.isin(grid.round(12), np.asarray(times_j).round(12)))
     qs, vs = _absolute(dyn, ys[0][keep], ys[1][keep])
     traced = _any_traced((system.params, x))

@@ -335,9 +335,10 @@ class JointCoordinates:
         z_blk, o_blk = [jnp.zeros((nf + 1, 3), dt)], [jnp.zeros((nf + 1, 3), dt)]
         xe = jnp.concatenate([x, jnp.zeros(1, dt)])
         th, s = T.sigma * xe[T.rot_col], xe[T.trans_col]
-        C = P["marker_C"]
-        C_in, C_out = C[T.m_in], C[T.m_out]
-        s_in, s_out = P["marker_s"][T.m_in], P["marker_s"][T.m_out]
+        if T.levels:  # (a model of free parts may have no markers at all)
+            C = P["marker_C"]
+            C_in, C_out = C[T.m_in], C[T.m_out]
+            s_in, s_out = P["marker_s"][T.m_in], P["marker_s"][T.m_out]
         for idx, ppos in zip(T.levels, T.level_parent_pos):
             rr, AA = jnp.concatenate(r_blk, 0)[ppos], jnp.concatenate(A_blk, 0)[ppos]
             A_in = mm(AA, C_in[idx])
@@ -509,10 +510,12 @@ class JointCoordinates:
 
         T = self.tree
         nb = T.parent.size
-        _, mk = kinematics(self.system, q)
-        th = joint_angle(mk.R[T.m_i], mk.R[T.m_j])
-        s = joint_translation(mk.r[T.m_i], mk.r[T.m_j], mk.R[T.m_j])
-        x = jnp.zeros(self.nq + 1, q.dtype).at[T.rot_col].set(th).at[T.trans_col].set(s)[: self.nq]
+        x = jnp.zeros(self.nq, q.dtype)
+        if T.levels:
+            _, mk = kinematics(self.system, q)
+            th = joint_angle(mk.R[T.m_i], mk.R[T.m_j])
+            s = joint_translation(mk.r[T.m_i], mk.r[T.m_j], mk.R[T.m_j])
+            x = jnp.zeros(self.nq + 1, q.dtype).at[T.rot_col].set(th).at[T.trans_col].set(s)[: self.nq]
         if T.floating.size:
             qb = q[: 7 * nb].reshape(nb, 7)
             x = x.at[T.float_col[:, None] + np.arange(7)].set(qb[T.floating])

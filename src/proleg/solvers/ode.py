@@ -55,22 +55,34 @@ class AbstractODEIntegrator:
             if not (v > 0):
                 raise ValueError(f"{type(self).__name__} {name} must be > 0, got {v}.")
 
-    def solver(self):
+    def solver(self, fixed=False):
         raise NotImplementedError
 
-    def controller(self, dt_max=None, fixed_step=None):
+    def controller(self, tol, dt_max=None, fixed=False):
+        """Diffrax step-size controller; ``tol`` = (rtol, atol), arrays (traced: no recompile per tolerance)."""
         import diffrax
 
-        if fixed_step is not None:
+        if fixed:
             return diffrax.ConstantStepSize()
-        return diffrax.PIDController(rtol=self.rtol, atol=self.atol, pcoeff=self.pcoeff, icoeff=self.icoeff, dtmax=dt_max)
+        return diffrax.PIDController(rtol=tol[0], atol=tol[1], pcoeff=self.pcoeff, icoeff=self.icoeff, dtmax=dt_max)
+
+    @property
+    def static(self):
+        """The integrator with its tolerances replaced by 1: the hashable, compile-time part."""
+        import dataclasses
+
+        return dataclasses.replace(self, rtol=1.0, atol=1.0)
+
+    @property
+    def tol(self):
+        return jnp.asarray(self.rtol, jnp.float64), jnp.asarray(self.atol, jnp.float64)
 
 
 @dataclass(frozen=True)
 class Tsit5(AbstractODEIntegrator):
     """Tsitouras' 5(4) explicit Runge–Kutta pair (Diffrax ``Tsit5``), for non-stiff models."""
 
-    def solver(self):
+    def solver(self, fixed=False):
         import diffrax
 
         return diffrax.Tsit5()
@@ -80,7 +92,7 @@ class Tsit5(AbstractODEIntegrator):
 class Dopri5(AbstractODEIntegrator):
     """Dormand–Prince 5(4) explicit Runge–Kutta pair (Diffrax ``Dopri5``; Exudyn's DOPRI5)."""
 
-    def solver(self):
+    def solver(self, fixed=False):
         import diffrax
 
         return diffrax.Dopri5()
@@ -93,9 +105,15 @@ class Kvaerno5(AbstractODEIntegrator):
     pcoeff: float = 0.3
     icoeff: float = 0.4
 
-    def solver(self):
+    def solver(self, fixed=False):
+        """With fixed steps the Newton tolerances cannot come from the step controller: full Newton
+        to 1e-11 (the chord iteration's divergence test trips on round-off at such tolerances)."""
         import diffrax
 
+        if fixed:
+            import optimistix
+
+            return diffrax.Kvaerno5(root_finder=optimistix.Newton(rtol=1e-11, atol=1e-13), root_find_max_steps=40)
         return diffrax.Kvaerno5()
 
 
@@ -120,16 +138,15 @@ def vector_field(t, y, args):
     return u, accelerations(dyn, x, u, t, z), dyn.power_terms(x, u, t, z)
 
 
-def solve(integrator, dyn, y0, z, t0, t1, ts=None, dt0=None, dt_max=None, fixed_step=None):
-    """Integrate y0 from t0 to t1 with ``z`` held; the states at ``ts`` (or at t1).
-
-    Returns (ys, accepted steps, rejected steps, ok)."""
+def solve(integrator, dyn, y0, z, t0, t1, tol, ts=None, dt0=None, dt_max=None, fixed=False):
+    """Integrate y0 from t0 to t1 with ``z`` held, tolerances ``tol`` = (rtol, atol); ``fixed``: constant
+    steps dt0. The states at ``ts`` (or at t1). Returns (ys, accepted steps, rejected steps, ok)."""
     import diffrax
 
     saveat = diffrax.SaveAt(ts=ts) if ts is not None else diffrax.SaveAt(t1=True)
     sol = diffrax.diffeqsolve(
-        diffrax.ODETerm(vector_field), integrator.solver(), t0, t1, fixed_step if fixed_step is not None else dt0, y0,
-        args=(dyn, z), saveat=saveat, stepsize_controller=integrator.controller(dt_max, fixed_step),
+        diffrax.ODETerm(vector_field), integrator.solver(fixed), t0, t1, dt0, y0,
+        args=(dyn, z), saveat=saveat, stepsize_controller=integrator.controller(tol, dt_max, fixed),
         max_steps=integrator.max_steps, throw=False, adjoint=diffrax.ForwardMode(),
     )
     return sol.ys, sol.stats["num_accepted_steps"], sol.stats["num_rejected_steps"], sol.result == diffrax.RESULTS.successful

@@ -1,0 +1,96 @@
+"""Order-5 ODE integrators on the joint-coordinate ODE (solvers/ode.py, analyses/ode.py):
+observed order, tolerance proportionality of the energy error, agreement with the implicit
+path, vmap and jacfwd, and the error for closed loops."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from test_core_rigid_body import J_PART, A0, Q, OMEGA_PRINCIPAL, V0
+from test_planar import chain, slider_crank
+
+import proleg as pl
+from proleg.errors import ModelError
+
+
+@pytest.fixture(scope="module")
+def pendulum():
+    return pl.assemble(chain(1, tilt=False))
+
+
+def _tip(result):
+    return np.asarray(result.part("link1").position[-1])
+
+
+@pytest.mark.parametrize("integrator", [pl.Tsit5(), pl.Kvaerno5()], ids=lambda i: type(i).__name__)
+def test_observed_order(pendulum, integrator):
+    """Fixed steps h = 0.04, 0.02, 0.01 s over 1 s of a pendulum swinging from 20° below the
+    horizontal (a smooth, nonlinear problem): the end-position error against an rtol-1e-13 run
+    falls as h^p with p within 0.3 of 5 (least-squares slope of log error on log h)."""
+    ref = _tip(pl.simulate(pendulum, t_end=1.0, output_times=[0.0, 1.0], integrator=pl.Tsit5(rtol=1e-13, atol=1e-14)))
+    hs = np.array([0.04, 0.02, 0.01])
+    err = [np.linalg.norm(_tip(pl.simulate(pendulum, t_end=1.0, output_times=[0.0, 1.0], integrator=integrator, fixed_step=h)) - ref) for h in hs]
+    slope = np.polyfit(np.log(hs), np.log(err), 1)[0]
+    assert abs(slope - integrator.order) < 0.3, (slope, err)
+
+
+def _energy_error(result):
+    T, V = np.asarray(result.energy["kinetic"]), np.asarray(result.energy["potential"])
+    E = T + V
+    return np.abs(E - E[0]).max() / max(T.max(), 1e-300)
+
+
+def torque_free():
+    """The 'flip' body of test_core_rigid_body (tumbling near its intermediate axis)."""
+    model = pl.Model("torque_free", gravity=(0, 0, 0))
+    model.add_part("flip", mass=3.0, inertia=J_PART, position=(0, 0, 0), orientation=A0, velocity=V0, angular_velocity=A0 @ Q @ OMEGA_PRINCIPAL["flip"])
+    return pl.assemble(model)
+
+
+@pytest.mark.parametrize("name", ["chain", "torque_free"])
+def test_energy_error_follows_rtol(name):
+    """Undamped 3-link chain (10 s) and a tumbling torque-free body (a floating base, 10 s), Tsit5:
+    the energy error relative to the largest kinetic energy falls at least 100× when rtol falls
+    1000× (1e-6 → 1e-9, atol = rtol/100); the body's ground angular momentum is kept alike."""
+    system = pl.assemble(chain(3, tilt=False)) if name == "chain" else torque_free()
+    errs = []
+    for rtol in (1e-6, 1e-9):
+        r = pl.simulate(system, t_end=10.0, dt_output=0.05, integrator=pl.Tsit5(rtol=rtol, atol=rtol / 100))
+        errs.append(_energy_error(r))
+    assert errs[0] / errs[1] >= 100.0, errs
+    assert errs[1] < 1e-7
+
+
+def test_agrees_with_generalized_alpha(pendulum):
+    """Tsit5 (rtol 1e-11) and generalized-α (rtol 1e-10) give the same swing within 1e-6 m."""
+    opts = dict(t_end=1.0, dt_output=0.1)
+    a = pl.simulate(pendulum, rtol=1e-10, atol=1e-11, **opts)
+    b = pl.simulate(pendulum, integrator=pl.Tsit5(rtol=1e-11, atol=1e-12), **opts)
+    assert b.coordinates == "joint" and b.ok
+    np.testing.assert_allclose(a.t, b.t)
+    assert np.abs(a.part("link1").position - b.part("link1").position).max() < 1e-6
+
+
+def test_closed_loop_is_refused():
+    """A closed loop is a DAE: the ODE integrators say so and name the loop joint."""
+    with pytest.warns(UserWarning, match="redundant"):
+        system = pl.assemble(slider_crank())
+    with pytest.raises(ModelError, match="wrist"):
+        pl.simulate(system, t_end=0.1, integrator=pl.Tsit5())
+
+
+@pytest.mark.slow
+def test_vmap_and_jacfwd_through_tsit5():
+    """vmap over 8 spring stiffnesses equals the loop (1e-12); jacfwd of the final position
+    equals central differences within 1e-5 relative (Diffrax ForwardMode adjoint)."""
+    system = pl.assemble(chain(2, tilt=False, spring=50.0))
+
+    def final_x(k):
+        r = pl.simulate(system.with_params({"spring.stiffness": k}), t_end=0.2, dt_output=0.05, integrator=pl.Tsit5(rtol=1e-10, atol=1e-12))
+        return r.part("link2").position[-1, 0]
+
+    ks = jnp.linspace(20.0, 90.0, 8)
+    np.testing.assert_allclose(jax.vmap(final_x)(ks), jnp.array([final_x(k) for k in ks]), rtol=0, atol=1e-12)
+    d = jax.jacfwd(final_x)(50.0)
+    fd = (final_x(50.0 + 1e-3) - final_x(50.0 - 1e-3)) / 2e-3
+    assert abs(d - fd) < 1e-5 * abs(fd)
