@@ -11,7 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 from test_core_fourbar import build as four_bar
-from test_planar import chain, slider_crank
+from test_planar import chain, check_vmap_and_jacfwd, slider_crank
 
 import proleg as pl
 from proleg.assembly.coordinates import coordinate_set
@@ -168,13 +168,7 @@ def test_vmap_and_jacfwd_through_joint_coordinates():
         r = pl.simulate(system.with_params({"spring.stiffness": k}), t_end=0.2, dt_output=0.05, fixed_step=1e-3, progress=False, coordinates="joint")
         return r.part("link2").position[-1, 0]
 
-    ks = jnp.linspace(20.0, 90.0, 8)
-    batch = jax.vmap(final_x)(ks)
-    loop = jnp.array([final_x(k) for k in ks])
-    np.testing.assert_allclose(batch, loop, rtol=0, atol=1e-12)
-    d = jax.jacfwd(final_x)(50.0)
-    fd = (final_x(50.0 + 1e-3) - final_x(50.0 - 1e-3)) / 2e-3
-    assert abs(d - fd) < 1e-5 * abs(fd)
+    check_vmap_and_jacfwd(final_x, jnp.linspace(20.0, 90.0, 8))
 
 
 @pytest.mark.slow
