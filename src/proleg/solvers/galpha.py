@@ -4,17 +4,7 @@
 
 following ../shared/notes/formulation.md §4: Newton on x = (q_{n+1}, μ = λ/β') with the scaled
 residual R_q = (1/β')[M q̈ − Q] + Φ_qᵀμ, R_Φ = Φ, the local error estimate
-e = h²(β − γ/2 + 1/12)(a_{n+1} − a_n) and the rescaling of a_n whenever h changes. With
-``velocity_error=True`` the estimate also covers velocities: e_v = e/h = h(β − γ/2 +
-1/12)(a_{n+1} − a_n), in the weights atol + rtol·|v| (the error norm is the larger of the two
-weighted RMS norms). It is O(h²) where e is O(h³), so it asks for smaller steps than the
-position term: h ∝ tol^(1/2) instead of tol^(1/3). The sharper local velocity error of the
-scheme (O(h³) with a second difference of the accelerations) would need the accelerations of
-two steps back, and the physical accelerations q̈ of the index-3 scheme carry O(1)
-transients (note §4) that make a trapezoidal-rule comparison unusable (measured: steps below
-dt_min on the double pendulum). Newton then also converges on the velocity correction
-γ/(βh)·Δq in the velocity weights (otherwise its O(newton_tol/h) noise in v is rejected as
-error as h falls).
+e = h²(β − γ/2 + 1/12)(a_{n+1} − a_n) and the rescaling of a_n whenever h changes.
 
 Newton matrix (modified Newton, as in Adams): [[M − (K + γ/(βh) C)/β', Φ_qᵀ], [Φ_q, 0]] with
 K = ∂Q/∂q, C = ∂Q/∂v, by forward-mode autodiff compressed by the column colouring of
@@ -69,7 +59,6 @@ class GeneralizedAlpha:
     """Generalized-α, index 3, scaled Newton (default integrator)."""
 
     rho_inf: float = 0.8
-    velocity_error: bool = False  # add the velocity term to the error estimate (module docstring)
 
     def __post_init__(self):
         if not (0.0 <= self.rho_inf < 1.0):
@@ -97,7 +86,6 @@ class HHT:
     """HHT-I3 (Adams' HHT): α in [−1/3, 0]; the mass matrix is evaluated at q_{n+1+α}."""
 
     alpha: float = -0.05
-    velocity_error: bool = False  # add the velocity term to the error estimate (module docstring)
 
     def __post_init__(self):
         if not (-1.0 / 3.0 <= self.alpha <= 0.0):
@@ -290,7 +278,6 @@ def step(dyn, integrator, st: StepState, h, opts: StepOptions):
     q_star = st.q + h * st.v + h * h * ((0.5 - beta) * a_n + beta * a_star)
     x0 = jnp.concatenate([q_star, st.lam / bp])
     w = _weights(dyn, st.q, opts)
-    wv = dyn.weights(st.v, opts.rtol, opts.atol, opts.atol_p) if integrator.velocity_error else None
     n = x0.shape[0]
     reuse = opts.jacobian_reuse
     r_h = opts.jacobian_h_ratio
@@ -315,8 +302,6 @@ def step(dyn, integrator, st: StepState, h, opts: StepOptions):
         dx = -lu_apply(Jfac, r)
         x = x + dx
         e = _wrms(dx[:nq], w)
-        if integrator.velocity_error:  # v₁ moves by γ/(βh) Δq: converge to the velocity tolerance too
-            e = jnp.maximum(e, _wrms(cv * dx[:nq], wv))
         phi_max = jnp.max(jnp.abs(r[nq:]), initial=0.0)
         # Converged when the correction is small, or (modified Newton, linear contraction
         # ρ = e_k/e_{k−1}) when the remaining error ρ/(1−ρ)·e_k and the constraint residual
@@ -361,11 +346,6 @@ def step(dyn, integrator, st: StepState, h, opts: StepOptions):
     else:
         e_vec = h * h * integrator.error_coefficient * (a1 - a_n)
     err = _wrms(e_vec, w)
-    if integrator.velocity_error:
-        # Velocity term: the counterpart of the position estimate along the step, e_v = e/h
-        # (module docstring), in the velocity weights atol + rtol·|v|.
-        e_v = e_vec / h
-        err = jnp.maximum(err, _wrms(e_v, wv))
     pw1 = dyn.power_terms(q1, v1, t1, z)
     wnew = st.w + 0.5 * h * (st.pw + pw1)
     if integrator.hht:
