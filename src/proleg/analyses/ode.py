@@ -101,7 +101,7 @@ def simulate_ode(system, t_end, dt_output=None, *, t0=0.0, output_times=None, in
     h = None if not fixed else jnp.asarray(fixed_step, jnp.float64)
     if Ts is None:
         ys, zs, ns, nr, ok = _run_free_jit(integrator.static, dyn, y0, z0, times_j, integrator.tol, h, dt_max, fixed)
-        keep = np.arange(times_j.shape[0])
+        keep, t_out = np.arange(times_j.shape[0]), np.asarray(times_j)
     else:
         ticks = t0 + Ts * np.arange(1, int(math.floor((times[-1] - t0) / Ts + 1e-9)) + 1)
         grid = np.unique(np.concatenate([np.asarray(times_j), ticks]).round(12))
@@ -110,6 +110,7 @@ def simulate_ode(system, t_end, dt_output=None, *, t0=0.0, output_times=None, in
             integrator.static, dyn, y0, z0, jnp.asarray(grid), jnp.asarray(is_tick), integrator.tol, h, dt_max, fixed
         )
         keep = np.flatnonzero(np.isin(grid.round(12), np.asarray(times_j).round(12)))
+        t_out = grid[keep]
     qs, vs = _absolute(dyn, ys[0][keep], ys[1][keep])
     traced = _any_traced((system.params, x))
     stats = np.zeros(4, int) if traced else np.array([int(ns), int(nr), 0, 0])
@@ -117,7 +118,7 @@ def simulate_ode(system, t_end, dt_output=None, *, t0=0.0, output_times=None, in
     if not traced and not bool(ok):
         status = Status.MAX_STEPS
         msg = f"{type(integrator).__name__} stopped before t = {times[-1]:.6g} s (step limit {integrator.max_steps} or non-finite state)."
-    result = Result(system, np.asarray(times_j)[keep], qs, vs, ys[2][keep], zs[keep], stats=stats, status=status, message=msg, integrator=integrator)
+    result = Result(system, t_out, qs, vs, ys[2][keep], zs[keep], stats=stats, status=status, message=msg, integrator=integrator)
     result.coordinates = "joint"
     if traced:
         result.traced_status = (jnp.where(ok, 0, int(Status.MAX_STEPS)), jnp.asarray(t0, jnp.float64), jnp.stack([ns, nr, 0 * ns, 0 * ns]))
