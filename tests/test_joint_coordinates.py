@@ -15,9 +15,9 @@ from test_planar import chain, check_vmap_and_jacfwd, slider_crank
 
 import proleg as pl
 from proleg.assembly.coordinates import coordinate_set
-from proleg.assembly.joint_coordinates import JointCoordinates, p_of_A
+from proleg.assembly.joint_coordinates import JointCoordinates
 from proleg.assembly.system import constraints, generalized_forces, mass_action
-from proleg.spatial.rotation import A_of_p
+from proleg.spatial.rotation import A_of_p, p_of_A
 
 G = 9.81
 

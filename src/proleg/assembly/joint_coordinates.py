@@ -50,7 +50,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ModelError
-from ..spatial.rotation import A_of_p, G_of_p, mm, mv
+from ..spatial.rotation import A_of_p, G_of_p, mm, mv, p_of_A
 from .constraints import ROW_KINDS, build_constraint_topology, constraint_values
 from .kinematics import BodyKin, marker_kin
 from .sparsity import Coloring
@@ -58,31 +58,6 @@ from .system import System, _joint_rows, body_loads, element_power
 
 TREE_KINDS = ("revolute", "prismatic", "cylindrical", "fixed")
 ROT, TRANS, FLOAT_R, FLOAT_P = 0, 1, 2, 3
-
-
-def _quat_mul(a, b):
-    from .coordinates import _quat_mul as qm
-
-    return qm(a, b)
-
-
-def p_of_A(R):
-    """Euler parameters of rotation matrices (..., 3, 3) → (..., 4), branch-free (Shepperd 1978:
-    of the four candidate formulas, the one with the largest pivot)."""
-    R00, R11, R22 = R[..., 0, 0], R[..., 1, 1], R[..., 2, 2]
-    c = jnp.stack(
-        [
-            jnp.stack([1 + R00 + R11 + R22, R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]], -1),
-            jnp.stack([R[..., 2, 1] - R[..., 1, 2], 1 + R00 - R11 - R22, R[..., 0, 1] + R[..., 1, 0], R[..., 0, 2] + R[..., 2, 0]], -1),
-            jnp.stack([R[..., 0, 2] - R[..., 2, 0], R[..., 0, 1] + R[..., 1, 0], 1 - R00 + R11 - R22, R[..., 1, 2] + R[..., 2, 1]], -1),
-            jnp.stack([R[..., 1, 0] - R[..., 0, 1], R[..., 0, 2] + R[..., 2, 0], R[..., 1, 2] + R[..., 2, 1], 1 - R00 - R11 + R22], -1),
-        ],
-        -2,
-    )  # (..., 4, 4): row k is 4 e_k p
-    k = jnp.argmax(jnp.stack([1 + R00 + R11 + R22, 1 + R00 - R11 - R22, 1 - R00 + R11 - R22, 1 - R00 - R11 + R22], -1), -1)
-    q = jnp.take_along_axis(c, k[..., None, None], -2)[..., 0, :]
-    q = q / jnp.linalg.norm(q, axis=-1, keepdims=True)
-    return q * jnp.where(q[..., :1] < 0, -1.0, 1.0)
 
 
 @dataclass(eq=False)
