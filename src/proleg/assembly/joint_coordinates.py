@@ -221,7 +221,7 @@ def build_joint_tree(system: System) -> JointTree:
     if ordered:
         import scipy.linalg
 
-        jc = JointCoordinates(system, tree)
+        jc = JointCoordinates(_concrete(system), tree)
         x0, _ = jax.jit(jc.reduce)(system.params["q_init"], system.params["v_init"])
         jac = jax.jit(jax.jacfwd(lambda x: jc._loop_rows(x, 0.0)))
         rng = np.random.default_rng(0)
@@ -254,6 +254,21 @@ def build_joint_tree(system: System) -> JointTree:
     tree.row_abs = topo.nq + np.array(loop_abs + norm_abs, int)
     tree.coloring = Coloring(color=np.arange(nq), mask_q=np.ones((nq, nq), bool), mask_phi=np.ones((nc, nq), bool), dense=True)
     return tree
+
+
+def _concrete(system: System) -> System:
+    """``system`` for the row selection when it is built inside jit/vmap (first use there):
+    traced parameters other than the geometry do not change which rows are independent."""
+    traced = [k for k, v in system.params.items() if isinstance(v, jax.core.Tracer)]
+    if not traced:
+        return system
+    geometry = [k for k in traced if k in ("marker_s", "marker_C", "q_init", "v_init") or k.startswith("variable_")]
+    if geometry:
+        raise ModelError(
+            f"Model '{system.topo.name}': the joint-coordinate tree is first built inside a transformation with traced "
+            f"geometry ({', '.join(geometry)}). Build it once outside: proleg.assembly.joint_coordinates.joint_set(system)."
+        )
+    return System({k: jnp.zeros(v.shape, v.dtype) if k in traced else v for k, v in system.params.items()}, system.topo)
 
 
 @jax.tree_util.register_pytree_node_class
