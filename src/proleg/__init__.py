@@ -115,6 +115,9 @@ from .assembly.system import System as System
 from .assembly.system import assemble as assemble
 from .solvers.galpha import HHT as HHT
 from .solvers.galpha import GeneralizedAlpha as GeneralizedAlpha
+from .solvers.ode import Dopri5 as Dopri5
+from .solvers.ode import Kvaerno5 as Kvaerno5
+from .solvers.ode import Tsit5 as Tsit5
 from .analyses.simulate import simulate as simulate
 from .analyses.sweep import SweepResult as SweepResult
 from .analyses.sweep import sweep as sweep

@@ -147,7 +147,9 @@ def simulate(
 
     Parameters
     ----------
-    integrator : GeneralizedAlpha (default, ρ∞ = 0.8) or HHT
+    integrator : GeneralizedAlpha (default, ρ∞ = 0.8) or HHT; or Tsit5, Dopri5, Kvaerno5 (order 5,
+        Diffrax, error control on positions and velocities) for loop-free trees, which run in joint
+        coordinates (solvers/ode.py, analyses/ode.py; their own rtol/atol apply)
     rtol, atol, atol_p : local error tolerances (relative; translations [m]; Euler parameters [-])
     fixed_step : float [s], optional — a fixed step (no error control); output times must be multiples
     dt_max : float [s], default min(dt_output, 1e-2)
@@ -174,10 +176,11 @@ def simulate(
     device : None (default: a single run goes to the CPU even where JAX's default device is a
         GPU, which is ~8× slower for one variant; inside ``jit``/``vmap`` JAX places it), a
         platform name ("cpu", "gpu", ...), "default", or a ``jax.Device`` (analyses/placement.py)
-    coordinates : "auto" (default), "absolute" or "planar" — the coordinates the integrator
+    coordinates : "auto" (default), "absolute", "planar" or "joint" — the coordinates the integrator
         runs on (assembly/coordinates.py). "auto" runs a planar mechanism (one whose joints confine
         every part to a plane: ``system.topo.planar`` says whether and why) on 3 coordinates per
-        part, an exact reduction, several times faster; results are always absolute.
+        part, an exact reduction, several times faster; "joint" runs joint coordinates of the
+        joints' spanning tree (assembly/joint_coordinates.py); results are always absolute.
         ``result.coordinates`` says which ran.
 
     Works under ``jax.vmap`` and ``jax.jacfwd`` (the Python loop over chunks is static).
@@ -186,6 +189,13 @@ def simulate(
     if store is not None:
         on_chunk = ChunkStore(store, on_chunk)
     integrator = integrator or GeneralizedAlpha()
+    if getattr(integrator, "ode", False):  # Tsit5, Dopri5, Kvaerno5: joint-coordinate ODE (analyses/ode.py)
+        from .ode import simulate_ode
+
+        return simulate_ode(
+            system, t_end, dt_output, t0=t0, output_times=output_times, integrator=integrator, q0=q0, v0=v0,
+            dt_max=dt_max, fixed_step=fixed_step, throw=throw,
+        )
     if output_times is None:
         if dt_output is None:
             dt_output = (t_end - t0) / 500.0
@@ -334,7 +344,7 @@ def _reduced_start(dyn, q, v, qdd, lam, z0):
     """The consistent absolute start (q, v, q̈, λ) in the coordinates ``dyn`` (x, ẋ, ẍ, λ_x) and
     the HHT history term g = Φ_xᵀλ_x − Q = −M ẍ."""
     x, xd = dyn.reduce(q, v)
-    xdd = dyn.reduce_acceleration(x, xd, qdd)
+    xdd = dyn.reduce_acceleration(x, xd, qdd, q)
     return x, xd, xdd, dyn.reduce_multipliers(lam), -dyn.mass_action(x, xdd)
 
 

@@ -237,7 +237,7 @@ class Planar:
         xd = jnp.concatenate([vb[:, :3] @ E, 4.0 * jnp.sum(dp * vb[:, 3:], 1, keepdims=True)], 1).reshape(-1)
         return x, xd
 
-    def reduce_acceleration(self, x, xd, qdd):
+    def reduce_acceleration(self, x, xd, qdd, q=None):
         """ẍ of absolute accelerations q̈ = T ẍ + Ṫ ẋ (Ṫ ẋ = −p θ̇²/4 is orthogonal to ∂p/∂θ)."""
         nb = self.system.topo.nbody
         ab = qdd.reshape(nb, 7)
@@ -373,11 +373,17 @@ def _planar_basis(system: System, q_ref):
 
 def coordinate_set(system: System, q_ref, coordinates: str = "auto"):
     """The coordinates to integrate ``system`` in: "absolute", "planar" (error if the model is not
-    planar) or "auto" (planar where the joints confine every part to one plane)."""
-    if coordinates not in ("auto", "absolute", "planar"):
-        raise ValueError(f"coordinates must be 'auto', 'absolute' or 'planar', got {coordinates!r}.")
+    planar), "joint" (joint coordinates of the spanning tree, loops as constraints:
+    assembly/joint_coordinates.py) or "auto" (planar where the joints confine every part to one
+    plane, else absolute)."""
+    if coordinates not in ("auto", "absolute", "planar", "joint"):
+        raise ValueError(f"coordinates must be 'auto', 'absolute', 'planar' or 'joint', got {coordinates!r}.")
     if coordinates == "absolute":
         return Absolute(system)
+    if coordinates == "joint":
+        from .joint_coordinates import joint_set
+
+        return joint_set(system)
     basis, why = getattr(system.topo, "planar", (None, "not checked"))
     if basis is None:
         if coordinates == "planar":

@@ -52,6 +52,7 @@ class Topology:
     # coordinates − equations), "rank" (coordinates − rank of the constraint Jacobian, the true
     # count), "redundant" rows, "initial_residual" (max |Φ| at the modelled pose, element, equation).
     dof: dict = field(default_factory=dict)
+    joint_tree: object = None  # joint_coordinates.JointTree (built on first use of coordinates="joint")
 
     @property
     def nbody(self) -> int:
@@ -293,19 +294,26 @@ def element_loads(system: System, bk, mk, t, z=None):
     return Fm, Tm
 
 
+def body_loads(system: System, bk, mk, t, z=None):
+    """Applied element loads per part: force Fb (nb, 3) [N, ground] at the COM and torque about
+    the COM Nb (nb, 3) [N·m, body components]; also the per-marker Aᵀ F and Aᵀ T (body components)."""
+    topo, P = system.topo, system.params
+    nb = topo.nbody
+    Fm, Tm = element_loads(system, bk, mk, t, z)
+    AtF = mtv(mk.Ab, Fm)
+    AtT = mtv(mk.Ab, Tm)
+    s_loc = mtv(mk.Ab, mk.s) if topo.n_eta else P["marker_s"]
+    n_local = AtT + jnp.cross(s_loc, AtF)
+    return (topo.marker_oh.T @ Fm)[:nb], (topo.marker_oh.T @ n_local)[:nb], AtF, AtT
+
+
 def generalized_forces(system: System, q, v, t, z=None):
     """Q(q, v, t): applied loads, gravity and the quadratic-velocity term, (nq,)."""
     topo, P = system.topo, system.params
     nb = topo.nbody
     bk, mk = kinematics(system, q, v)
-    Fm, Tm = element_loads(system, bk, mk, t, z)
     # Marker loads → generalized forces: Q_r += F, Q_p += 2 Lᵀ (Aᵀ T + s' × Aᵀ F).
-    AtF = mtv(mk.Ab, Fm)
-    AtT = mtv(mk.Ab, Tm)
-    s_loc = mtv(mk.Ab, mk.s) if topo.n_eta else P["marker_s"]
-    n_local = AtT + jnp.cross(s_loc, AtF)
-    Fb = (topo.marker_oh.T @ Fm)[:nb]
-    Nb = (topo.marker_oh.T @ n_local)[:nb]
+    Fb, Nb, AtF, AtT = body_loads(system, bk, mk, t, z)
     p = bk.p[:nb]
     L = L_of_p(p)
     pd = v[: 7 * nb].reshape(nb, 7)[:, 3:]
@@ -346,13 +354,18 @@ def potential_energy(system: System, q, t=0.0, z=None):
 
 def power_terms(system: System, q, v, t, z=None):
     """(dissipated power ≥ 0, input power of external loads) [W]."""
-    topo, P = system.topo, system.params
     bk, mk = kinematics(system, q, v)
+    return element_power(system, bk, mk, t, z, None if not system.topo.n_eta else system.topo.flex.dissipative(system.params, q, v)[1])
+
+
+def element_power(system: System, bk, mk, t, z=None, d_flex=None):
+    """(dissipated power, input power) [W] of the elements at given body and marker kinematics."""
+    topo, P = system.topo, system.params
     ctx = StateView(topo, bk, mk, t, z, P)
     gs = [g for g in topo.groups + topo.extensions if len(g)]
     d = sum((g.dissipation(P, mk, t, ctx) for g in gs), jnp.zeros(()))
-    if topo.n_eta:
-        d = d + topo.flex.dissipative(P, q, v)[1]
+    if d_flex is not None:
+        d = d + d_flex
     w = sum((g.input_power(P, mk, t, ctx) for g in gs), jnp.zeros(()))
     return jnp.stack([d, w])
 

@@ -302,7 +302,7 @@ def step(dyn, integrator, st: StepState, h, opts: StepOptions):
         dx = -lu_apply(Jfac, r)
         x = x + dx
         e = _wrms(dx[:nq], w)
-        phi_max = jnp.max(jnp.abs(r[nq:]))
+        phi_max = jnp.max(jnp.abs(r[nq:]), initial=0.0)
         # Converged when the correction is small, or (modified Newton, linear contraction
         # ρ = e_k/e_{k−1}) when the remaining error ρ/(1−ρ)·e_k and the constraint residual
         # after this update, ≈ max(ρ, ρ_Φ)·|Φ(x_k)|, are below the tolerances (Hairer & Wanner
@@ -326,7 +326,7 @@ def step(dyn, integrator, st: StepState, h, opts: StepOptions):
     finite = jnp.all(jnp.isfinite(q1)) & jnp.all(jnp.isfinite(v1))
     # The rate test estimates |Φ| after the last update; check it (a cheap evaluation) so every
     # accepted state meets the constraints to 5·phi_tol whatever the estimate said.
-    phi_ok = jnp.max(jnp.abs(dyn.constraints(q1, t1))) < 5.0 * opts.phi_tol
+    phi_ok = jnp.max(jnp.abs(dyn.constraints(q1, t1)), initial=0.0) < 5.0 * opts.phi_tol
     conv = conv & finite & ~bad & phi_ok
     # Reuse the matrix next step unless this one needed many iterations or failed; a failure
     # with a reused matrix is retried at the same h with a fresh one (``stale_fail``).

@@ -51,6 +51,25 @@ def L_of_p(p):
     return jnp.concatenate([-e[..., :, None], -skew(e) + e0[..., None, None] * jnp.eye(3)], -1)
 
 
+def p_of_A(R):
+    """Euler parameters of rotation matrices (..., 3, 3) → (..., 4), branch-free (Shepperd 1978:
+    of the four candidate formulas, the one with the largest pivot)."""
+    R00, R11, R22 = R[..., 0, 0], R[..., 1, 1], R[..., 2, 2]
+    c = jnp.stack(
+        [
+            jnp.stack([1 + R00 + R11 + R22, R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]], -1),
+            jnp.stack([R[..., 2, 1] - R[..., 1, 2], 1 + R00 - R11 - R22, R[..., 0, 1] + R[..., 1, 0], R[..., 0, 2] + R[..., 2, 0]], -1),
+            jnp.stack([R[..., 0, 2] - R[..., 2, 0], R[..., 0, 1] + R[..., 1, 0], 1 - R00 + R11 - R22, R[..., 1, 2] + R[..., 2, 1]], -1),
+            jnp.stack([R[..., 1, 0] - R[..., 0, 1], R[..., 0, 2] + R[..., 2, 0], R[..., 1, 2] + R[..., 2, 1], 1 - R00 - R11 + R22], -1),
+        ],
+        -2,
+    )  # (..., 4, 4): row k is 4 e_k p
+    k = jnp.argmax(jnp.stack([1 + R00 + R11 + R22, 1 + R00 - R11 - R22, 1 - R00 + R11 - R22, 1 - R00 - R11 + R22], -1), -1)
+    q = jnp.take_along_axis(c, k[..., None, None], -2)[..., 0, :]
+    q = q / jnp.linalg.norm(q, axis=-1, keepdims=True)
+    return q * jnp.where(q[..., :1] < 0, -1.0, 1.0)
+
+
 def p_from_matrix(R) -> np.ndarray:
     """Unit quaternion (scalar first, e0 ≥ 0) of a rotation matrix (numpy, outside jit)."""
     from scipy.spatial.transform import Rotation

@@ -1,0 +1,212 @@
+"""Work–precision table: global error and wall time against rtol, per integrator and problem.
+
+Problems (issue 21):
+
+- ``double_pendulum``: two 0.15 m, 0.1 kg rods (bench/common.py ``build_chain(2)``), undamped,
+  from 30° below the horizontal, 10 s: max |E(t) − E(0)| / max T (energy error relative to the
+  largest kinetic energy).
+- ``a01``: IFToMM benchmark A01, simple pendulum: 1 kg on a 1 m massless rod (a part with a
+  1e-6 kg m² inertia about its COM), released from the horizontal, 100 s: max distance of the
+  bob from the reference, the pendulum ODE θ̈ = −m g L sin θ / (m L² + I) integrated by
+  scipy's DOP853 at rtol = atol = 1e-13 (an independent reference, not IFToMM's file).
+- ``chain8``: the 8-link chain of bench/chain.py, undamped, 10 s: energy drift as above.
+
+- ``squeezer``: Andrews' squeezing mechanism (Hairer & Wanner II §VII.7), seven parts and ten
+  revolutes in the plane, a closed-loop DAE: max error of the seven angles at 0.03 s against
+  the Test Set for IVP solvers' reference (PSIDE at rtol = atol = 1e-14).
+
+Integrators: ``ga`` (generalized-α, ρ∞ = 0.8, the default, coordinates "auto"), ``ga_joint``
+(generalized-α in joint coordinates), ``hht`` (HHT α = −0.05), ``tsit5`` and ``kvaerno5`` (Diffrax, joint-coordinate
+ODE). atol = rtol / 10 (translations) throughout. Wall time: the second of two runs (the
+first compiles).
+
+    python bench/accuracy.py                         # all problems, rtol 1e-4 ... 1e-10
+    python bench/accuracy.py --problems a01 --integrators tsit5 ga --rtols 1e-6 1e-8
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import numpy as np
+from common import add_output_args, build_chain, emit, log
+
+COLUMNS = ["problem", "integrator", "rtol", "error", "wall [s]", "steps", "rejected", "us/step", "compile+run [s]"]
+RTOLS = [1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10]
+
+
+# Andrews' squeezer: Hairer & Wanner II §VII.7 / Test Set for IVP solvers (andrews.f): masses
+# [kg], planar moments of inertia [kg m²], geometry [m], spring c0 [N/m], l0 [m], torque [N m].
+SQ = dict(
+    m=(0.04325, 0.00365, 0.02373, 0.00706, 0.07050, 0.00706, 0.05498),
+    i=(2.194e-6, 4.410e-7, 5.255e-6, 5.667e-7, 1.169e-5, 5.667e-7, 1.912e-5),
+    xa=-0.06934, ya=-0.00227, xb=-0.03635, yb=0.03273, xc=0.014, yc=0.072,
+    d=28e-3, da=115e-4, e=2e-2, ea=1421e-5, rr=7e-3, ra=92e-5, ss=35e-3, sa=1874e-5, sb=1043e-5, sc=18e-3, sd=2e-2,
+    ta=2308e-5, tb=916e-5, u=4e-2, ua=1228e-5, ub=449e-5, zf=2e-2, zt=4e-2, fa=1421e-5, mom=0.033, c0=4530.0, l0=0.07785,
+)
+# Consistent initial angles (β, Θ, γ, Φ, δ, Ω, ε) [rad] and the reference at t = 0.03 s (PSIDE,
+# rtol = atol = 1e-14; Test Set for IVP solvers, andrews.f ``andsoln``).
+SQ_Y0 = (-0.0617138900142764496, 0.0, 0.455279819163070380, 0.222668390165885885, 0.487364979543842550, -0.222668390165885885, 1.23054744454982119)
+SQ_REF = (15.81077119629904, -15.75637105984298, 0.04082224013073101, -0.5347301163226948, 0.5244099658805304, 0.5347301163226948, 1.048080741042263)
+
+
+def squeezer_model():
+    """The seven-body mechanism in the x-y plane (revolutes about z, no gravity). Each part's
+    frame is turned by its absolute angle; the centres of mass of the parts pinned to ground
+    (K1, K3, K5, K7) are placed at their distance from the pivot (their direction does not enter
+    the equations of the test set)."""
+    import proleg as pl
+
+    p = SQ
+    b, th, g, ph, de, om, ep = SQ_Y0
+
+    def R(a):
+        return np.array([[math.cos(a), -math.sin(a), 0.0], [math.sin(a), math.cos(a), 0.0], [0.0, 0.0, 1.0]])
+
+    def pt(origin, a, local):
+        return np.asarray(origin, float) + R(a) @ np.array([local[0], local[1], 0.0])
+
+    O, A, B, C = np.zeros(3), np.array([p["xa"], p["ya"], 0.0]), np.array([p["xb"], p["yb"], 0.0]), np.array([p["xc"], p["yc"], 0.0])
+    F = pt(O, b, (p["rr"], 0.0))
+    E = pt(F, b + th, (-p["d"], 0.0))
+    G = pt(A, de, (p["zt"], 0.0))
+    H = pt(A, ep, (0.0, -p["u"]))
+    D = pt(B, g, (p["sd"], -p["sc"]))
+    angles = (b, b + th, g, ph + de, de, om + ep, ep)
+    coms = (
+        pt(O, b, (p["ra"], 0.0)), pt(F, b + th, (-p["da"], 0.0)), pt(B, g, (p["sb"], -p["sa"])),
+        pt(G, ph + de, (0.0, -(p["e"] - p["ea"]))), pt(A, de, (p["ta"], p["tb"])),
+        pt(H, om + ep, (p["zf"] - p["fa"], 0.0)), pt(A, ep, (p["ua"], p["ub"])),
+    )
+    model = pl.Model("andrews_squeezer", gravity=(0.0, 0.0, 0.0))
+    K = [
+        model.add_part(f"K{k + 1}", mass=p["m"][k], inertia=(p["i"][k],) * 3, position=tuple(coms[k]), orientation=R(angles[k]))
+        for k in range(7)
+    ]
+    z, gr = (0.0, 0.0, 1.0), model.ground
+    for name, i, j, at in [
+        ("O", K[0], gr, O), ("F", K[1], K[0], F), ("B", K[2], gr, B), ("E3", K[2], K[1], E), ("E4", K[3], K[1], E),
+        ("E6", K[5], K[1], E), ("G", K[3], K[4], G), ("A5", K[4], gr, A), ("A7", K[6], gr, A), ("H", K[5], K[6], H),
+    ]:
+        model.add_joint(pl.Revolute(name, i, j, at=tuple(at), axis=z))
+    model.add_force(pl.SpringDamper("spring", model.add_marker(K[2], "D", position=tuple(D)), model.add_marker(gr, "C", position=tuple(C)),
+                                    stiffness=p["c0"], damping=0.0, free_length=p["l0"]))
+    model.add_force(pl.Torque("mom", K[0], value=(0.0, 0.0, p["mom"])))
+    return model
+
+
+def squeezer_angles(result):
+    """(β, Θ, γ, Φ, δ, Ω, ε) at the last output, from the parts' unwrapped absolute angles."""
+    phi = []
+    for k in range(7):
+        Rk = np.asarray(result.part(f"K{k + 1}").orientation)
+        phi.append(np.unwrap(np.arctan2(Rk[:, 1, 0], Rk[:, 0, 0]))[-1])
+    p1, p2, p3, p4, p5, p6, p7 = phi
+    return np.array([p1, p2 - p1, p3, p4 - p5, p5, p6 - p7, p7])
+
+
+def a01_model():
+    import proleg as pl
+
+    model = pl.Model("a01", gravity=(0.0, -9.81, 0.0))
+    bob = model.add_part("bob", mass=1.0, inertia=(1e-6, 1e-6, 1e-6), position=(1.0, 0.0, 0.0))
+    model.add_joint(pl.Revolute("pin", bob, model.ground, at=(0.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0)))
+    return model
+
+
+def a01_reference(t):
+    """Bob position (x, y) of A01 at times t: DOP853 at rtol = atol = 1e-13."""
+    from scipy.integrate import solve_ivp
+
+    m, L, I, g = 1.0, 1.0, 1e-6, 9.81
+
+    def f(_, y):
+        return [y[1], -m * g * L * math.cos(y[0]) / (m * L * L + I)]  # θ from +x, gravity −y
+
+    sol = solve_ivp(f, (0.0, t[-1]), [0.0, 0.0], method="DOP853", t_eval=t, rtol=1e-13, atol=1e-13)
+    th = sol.y[0]
+    return np.stack([L * np.cos(th), L * np.sin(th)], 1)
+
+
+def problems():
+    import proleg as pl
+
+    def energy_error(r):
+        T, V = np.asarray(r.energy["kinetic"]), np.asarray(r.energy["potential"])
+        E = T + V
+        return float(np.abs(E - E[0]).max() / T.max())
+
+    out = {}
+    out["double_pendulum"] = dict(system=pl.assemble(build_chain(2)), t_end=10.0, dt=0.01, error=energy_error, what="energy error / max T")
+    out["chain8"] = dict(system=pl.assemble(build_chain(8)), t_end=10.0, dt=0.01, error=energy_error, what="energy drift / max T")
+    ref = {}
+
+    def a01_error(r):
+        if "xy" not in ref:
+            ref["xy"] = a01_reference(np.asarray(r.t))
+        return float(np.linalg.norm(np.asarray(r.part("bob").position)[:, :2] - ref["xy"], axis=1).max())
+
+    out["squeezer"] = dict(
+        system=pl.assemble(squeezer_model()), t_end=0.03, dt=1e-4, error=lambda r: float(np.abs(squeezer_angles(r) - SQ_REF).max()),
+        what="max angle error at 0.03 s [rad] (Test Set reference)",
+    )
+    out["a01"] = dict(system=pl.assemble(a01_model()), t_end=100.0, dt=0.1, error=a01_error, what="max bob position error [m]")
+    return out
+
+
+def integrator_kw(name, rtol):
+    import proleg as pl
+
+    tol = dict(rtol=rtol, atol=rtol / 10)
+    return {
+        "ga": dict(**tol),
+        "ga_joint": dict(coordinates="joint", **tol),
+        "hht": dict(integrator=pl.HHT(), **tol),
+        "tsit5": dict(integrator=pl.Tsit5(**tol)),
+        "kvaerno5": dict(integrator=pl.Kvaerno5(**tol)),
+    }[name]
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--problems", nargs="+", default=["squeezer", "double_pendulum", "a01", "chain8"])
+    ap.add_argument("--integrators", nargs="+", default=["ga", "tsit5", "kvaerno5"])
+    ap.add_argument("--rtols", type=float, nargs="+", default=RTOLS)
+    ap.add_argument("--max-wall", type=float, default=120.0, help="skip smaller rtols of an integrator once a run takes longer [s]")
+    add_output_args(ap, "accuracy")
+    args = ap.parse_args(argv)
+
+    import proleg as pl
+
+    probs = problems()
+    rows = []
+    for pname in args.problems:
+        p = probs[pname]
+        for iname in args.integrators:
+            for rtol in sorted(args.rtols, reverse=True):
+                kw = integrator_kw(iname, rtol)
+                log(f"{pname} {iname} rtol {rtol:g} ...")
+                run = lambda: pl.simulate(p["system"], t_end=p["t_end"], dt_output=p["dt"], progress=False, throw=False, **kw)  # noqa: E731
+                t0 = time.perf_counter()
+                r = run()
+                first = time.perf_counter() - t0
+                t0 = time.perf_counter()
+                r = run()
+                wall = time.perf_counter() - t0
+                err = p["error"](r) if r.ok else float("nan")
+                steps = r.stats["steps"]
+                rows.append({
+                    "problem": pname, "integrator": iname, "rtol": rtol, "error": err, "wall [s]": wall, "steps": steps,
+                    "rejected": r.stats["rejected"], "us/step": 1e6 * wall / max(steps, 1), "compile+run [s]": first,
+                })
+                log(f"   error {err:.3g}, {wall:.3f} s, {steps} steps")
+                if wall > args.max_wall:
+                    break
+    notes = [f"{k}: {v['what']}, {v['t_end']:g} s" for k, v in probs.items() if k in args.problems]
+    emit(args, "Work-precision: global error and wall time against rtol", rows, COLUMNS, meta={"atol": "rtol/10"}, notes=notes)
+
+
+if __name__ == "__main__":
+    main()
