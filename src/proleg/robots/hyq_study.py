@@ -91,9 +91,6 @@ def run_bushing_study(out_dir="results/hyq-bushing-study", progress: bool = True
 
     out = Path(out_dir)
     study = bushing_study()
-    # One batch at a time: two concurrent vmap batches of this model hung (every thread waiting
-    # on a futex, no CPU) in sweep's threaded path on the 2-core VM; one batch runs.
-    run_kw.setdefault("workers", 1)
     table = study.run(design="grid", n=n, executor=executor, store=out, progress=progress, **run_kw)
     table.to_csv(out / "table.csv", index=False)
     return study_report(out, out / "report.html")
@@ -103,8 +100,7 @@ def hierarchy_rows(stiffness, rigid, *, gain: str = "high", drop_height: float =
     """The drop report's hierarchy sweep through the study: {k: {"peak hip force [N]", "peak
     knee force [N]", "RMS Δ hip vs rigid [N]", "RMS Δ knee vs rigid [N]", "steps", "wall time
     [s]"}} for each pin stiffness ``k`` [N/m], against the ``rigid`` leg's channels. Vmap
-    batches of ``batch_size`` neighbouring stiffnesses, one batch at a time (see
-    :func:`run_bushing_study`): a batch steps until its slowest variant is done, and the soft
+    batches of ``batch_size`` neighbouring stiffnesses, one batch at a time: a batch steps until its slowest variant is done, and the soft
     pins take ~3× the steps of the stiff ones (1,624 at 1e6 N/m, 480 at 1e10 N/m)."""
     st = bushing_study(gain=gain, drop_height=drop_height, reference=rigid, system=system)
     tab = st.run(design={"pin_stiffness": sorted(stiffness)}, workers=1, batch_size=batch_size, progress=False)
