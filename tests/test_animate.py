@@ -115,3 +115,25 @@ def test_combine_scenes_side_by_side():
     other["t"] = (t + 0.1).tolist()
     with pytest.raises(ValueError, match="other frame times"):
         combine_scenes({"a": one(1.0), "b": other})
+
+
+def test_cli_view_writes_the_page(swing, tmp_path):
+    """``proleg view result.parquet --model robot.urdf``: the page with the URDF's shapes and
+    every part pose from the file; a missing file is a clear error (exit code 2)."""
+    import json
+    import re
+
+    from typer.testing import CliRunner
+
+    from proleg.cli.main import app
+
+    swing.to_parquet(tmp_path / "r.parquet")
+    out = CliRunner().invoke(app, ["view", str(tmp_path / "r.parquet"), "--model", str(DATA), "--fixed-base", "--no-open"])
+    assert out.exit_code == 0, out.output
+    html = (tmp_path / "r.html").read_text()
+    scene = json.loads(re.search(r'<script type="application/json" id="scene-data">(.*?)</script>', html, re.S).group(1).replace("<\\/", "</"))
+    assert [p["name"] for p in scene["parts"]] == ["thigh", "shank"]
+    assert any(s["kind"] == "cylinder" for p in scene["parts"] for s in p["shapes"])  # from the URDF, not inertia boxes
+    assert len(scene["t"]) == len(swing.t)
+    bad = CliRunner().invoke(app, ["view", str(tmp_path / "nothere.parquet"), "--no-open"])
+    assert bad.exit_code == 2 and "nothere.parquet not found" in " ".join(bad.output.split())  # rich wraps lines

@@ -100,8 +100,9 @@ def hierarchy_rows(stiffness, rigid, *, gain: str = "high", drop_height: float =
     """The drop report's hierarchy sweep through the study: {k: {"peak hip force [N]", "peak
     knee force [N]", "RMS Δ hip vs rigid [N]", "RMS Δ knee vs rigid [N]", "steps", "wall time
     [s]"}} for each pin stiffness ``k`` [N/m], against the ``rigid`` leg's channels. Vmap
-    batches of ``batch_size`` neighbouring stiffnesses, one batch at a time: a batch steps until its slowest variant is done, and the soft
-    pins take ~3× the steps of the stiff ones (1,624 at 1e6 N/m, 480 at 1e10 N/m)."""
+    batches of ``batch_size`` neighbouring stiffnesses, one batch at a time: a batch steps
+    until its slowest variant is done, and the soft pins take ~3× the steps of the stiff ones
+    (1,624 at 1e6 N/m, 480 at 1e10 N/m)."""
     st = bushing_study(gain=gain, drop_height=drop_height, reference=rigid, system=system)
     tab = st.run(design={"pin_stiffness": sorted(stiffness)}, workers=1, batch_size=batch_size, progress=False)
     bad = tab[tab["status"] != "success"]
