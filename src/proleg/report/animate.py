@@ -174,8 +174,8 @@ def _unb64(b: str, shape_tail: tuple, dtype=np.float32) -> np.ndarray:
 
 def combine_scenes(scenes: dict, spacing: float | None = None) -> dict:
     """One scene holding several (``{label: scene}``, e.g. the same test with three joint
-    models), side by side along y, ``spacing`` [m] apart (default: the widest scene's extent
-    plus 20 %). Part, line and contact names get a ``"label: "`` prefix. Every scene must have
+    models), side by side along y, ``spacing`` [m] apart (default: 1.2 × the widest scene's
+    extent + 0.4 m). Part, line and contact names get a ``"label: "`` prefix. Every scene must have
     the same frame times (the same output times and ``max_frames``)."""
     items = list(scenes.items())
     if not items:
@@ -189,7 +189,8 @@ def combine_scenes(scenes: dict, spacing: float | None = None) -> dict:
             )
     n = len(t0)
     if spacing is None:
-        spacing = 1.2 * max(max(sc["bounds"][1][k] - sc["bounds"][0][k] for k in range(2)) for _, sc in items) or 1.0
+        # the bounds hold the parts' origins, not their shapes: 0.4 m more for the bodies drawn around them
+        spacing = 1.2 * max(max(sc["bounds"][1][k] - sc["bounds"][0][k] for k in range(2)) for _, sc in items) + 0.4
     parts, meshes, lines, contacts, poses, lps, cds, lo, hi = [], {}, [], [], [], [], [], [], []
     for i, (label, sc) in enumerate(items):
         dy = np.array([0.0, (i - 0.5 * (len(items) - 1)) * spacing, 0.0], np.float32)

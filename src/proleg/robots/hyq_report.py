@@ -383,7 +383,8 @@ def drop_report(
 
 def write_drop_report(out_dir, outs: list[dict], *, t_end: float, gain: str = "high", drop_height: float = 0.05, wall0=None) -> Path:
     """Files and HTML report from the outputs of :func:`simulate_drops` (one dict per model:
-    ``name``, ``channels``, ``summary``, ``info``, ``runs``, ``bench``)."""
+    ``name``, ``channels``, ``summary``, ``info``, ``runs``, ``bench``, optional ``scene`` (the
+    3D animation's data) and, for one model, ``sweep`` ({k: :func:`hierarchy_row`-like dict}))."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     wall0 = time.perf_counter() if wall0 is None else wall0
