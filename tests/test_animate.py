@@ -84,3 +84,56 @@ def test_in_headless_chromium(swing, tmp_path):
     p, console = _run([exe, *FLAGS, "--dump-dom", f"{path.as_uri()}#t=0.2"])
     assert 'id="status" class="ok">ok: 2 parts' in p.stdout, p.stdout[-500:]
     assert not console, console
+
+
+def test_combine_scenes_side_by_side():
+    """Two scenes in one: parts renamed per scene, poses shifted along y by the spacing, the
+    rest of the data (times, z, quaternions) unchanged; different frame times are an error."""
+    from proleg.report.animate import _scene, _unb64, combine_scenes
+
+    t = np.linspace(0.0, 1.0, 5)
+    box = [{"kind": "box", "size": [0.1, 0.1, 0.1], "X": np.eye(4).ravel().tolist(), "color": None}]
+
+    def one(z):
+        pose = np.zeros((len(t), 1, 7))
+        pose[:, 0, 2], pose[:, 0, 3] = z - t, 1.0
+        cd = np.zeros((len(t), 6))
+        cd[:, 5] = 10.0 * t
+        return _scene(t, ["body"], {"body": box}, {}, pose, [], [], [{"name": "c", "radius": 0.0}], [cd], "s")
+
+    sc = combine_scenes({"a": one(1.0), "b": one(2.0)}, spacing=0.5)
+    assert [p["name"] for p in sc["parts"]] == ["a: body", "b: body"]
+    assert [c["name"] for c in sc["contacts"]] == ["a: c", "b: c"]
+    pose = _unb64(sc["pose"], (2, 7))
+    np.testing.assert_allclose(pose[:, :, 1], [[-0.25, 0.25]] * len(t))
+    np.testing.assert_allclose(pose[:, 0, 2], 1.0 - t, atol=1e-6)
+    np.testing.assert_allclose(pose[:, 1, 2], 2.0 - t, atol=1e-6)
+    cd = _unb64(sc["contact_data"], (2, 6))
+    np.testing.assert_allclose(cd[:, :, 1], [[-0.25, 0.25]] * len(t))
+    assert sc["force_max"] == pytest.approx(10.0)
+    other = one(1.0)
+    other["t"] = (t + 0.1).tolist()
+    with pytest.raises(ValueError, match="other frame times"):
+        combine_scenes({"a": one(1.0), "b": other})
+
+
+def test_cli_view_writes_the_page(swing, tmp_path):
+    """``proleg view result.parquet --model robot.urdf``: the page with the URDF's shapes and
+    every part pose from the file; a missing file is a clear error (exit code 2)."""
+    import json
+    import re
+
+    from typer.testing import CliRunner
+
+    from proleg.cli.main import app
+
+    swing.to_parquet(tmp_path / "r.parquet")
+    out = CliRunner().invoke(app, ["view", str(tmp_path / "r.parquet"), "--model", str(DATA), "--fixed-base", "--no-open"])
+    assert out.exit_code == 0, out.output
+    html = (tmp_path / "r.html").read_text()
+    scene = json.loads(re.search(r'<script type="application/json" id="scene-data">(.*?)</script>', html, re.S).group(1).replace("<\\/", "</"))
+    assert [p["name"] for p in scene["parts"]] == ["thigh", "shank"]
+    assert any(s["kind"] == "cylinder" for p in scene["parts"] for s in p["shapes"])  # from the URDF, not inertia boxes
+    assert len(scene["t"]) == len(swing.t)
+    bad = CliRunner().invoke(app, ["view", str(tmp_path / "nothere.parquet"), "--no-open"])
+    assert bad.exit_code == 2 and "nothere.parquet not found" in " ".join(bad.output.split())  # rich wraps lines

@@ -53,8 +53,20 @@ def _fake_channels(scale: float) -> pd.DataFrame:
     return df
 
 
+def _fake_scene(t, z0: float) -> dict:
+    """A two-part scene (proleg.report.animate's JSON) falling from ``z0`` [m]."""
+    from proleg.report.animate import _scene
+
+    box = [{"kind": "box", "size": [0.1, 0.1, 0.3], "X": np.eye(4).ravel().tolist(), "color": None}]
+    pose = np.zeros((len(t), 2, 7))
+    pose[:, :, 3] = 1.0
+    pose[:, 0, 2], pose[:, 1, 2] = z0 - 0.5 * 9.81 * t**2, z0 - 0.4 - 0.5 * 9.81 * t**2
+    return _scene(t, ["slider", "foot"], {"slider": box, "foot": box}, {}, pose, [], [], [], [], "leg")
+
+
 def test_report_contains_every_figure_and_table(tmp_path):
     outs = []
+    rigid = _fake_channels(1.0)
     for k, name in enumerate(R.MODELS):
         df = _fake_channels(1.0 - 0.15 * k)
         outs.append(
@@ -62,7 +74,8 @@ def test_report_contains_every_figure_and_table(tmp_path):
                 "name": name, "channels": df, "summary": T.drop_summary(df), "info": hyq_leg(name).hyq,
                 "runs": [{"model": name, "steps": 100, "rejected": 0, "Newton iterations": 150, "wall time [s]": 1.0}],
                 "bench": T.instrument(df, np.random.default_rng(0)) if name == "bushings8" else None,
-                "sweep": {k: _fake_channels(1.0 - 0.3 / np.log10(k)).iloc[:350] for k in R.SWEEP_STIFFNESS} if name == "bushings8" else {},
+                "sweep": {k: R.hierarchy_row(_fake_channels(1.0 - 0.3 / np.log10(k)).iloc[:350], rigid) for k in R.SWEEP_STIFFNESS} if name == "bushings8" else {},
+                "scene": _fake_scene(np.linspace(0.0, 0.3, 31), 0.7 + 0.01 * k),
             }
         )
     path = R.write_drop_report(tmp_path, outs, t_end=0.6)
@@ -76,6 +89,11 @@ def test_report_contains_every_figure_and_table(tmp_path):
     for want in TABLES:
         assert any(t.startswith(want) for t in tables), want
     assert html.count("data:image/png;base64,") == len(FIGURES)  # self-contained
+    # one 3D animation with the three models side by side, each part named after its model
+    assert html.count("<iframe") == 1 and "3D animation" in html
+    for name in R.MODELS:
+        label = R.LABELS[name].split(",")[0] if name == "rigid" else R.LABELS[name]
+        assert f"{label}: slider".replace("&", "&amp;") in html or f"{label}: slider" in html
     for col in ("peak hip force [N]", "settling time [s]", "peak GRF z [N]"):
         assert col.split(" [")[0] in html
     assert "seed 000 Table 2" in html and "MODEL_DATA §1" in html
@@ -85,6 +103,11 @@ def test_report_contains_every_figure_and_table(tmp_path):
     assert set(back["model"]) == set(R.MODELS)
     hier = pd.read_csv(tmp_path / "hierarchy.csv")
     assert np.all(np.diff(hier["peak hip / rigid [-]"]) > 0)
+    # the fake records scale the rigid one by s = 1 − 0.3 / log10 k: peaks and RMS differences in closed form
+    s = 1.0 - 0.3 / np.log10(hier["pin radial stiffness [N/m]"])
+    np.testing.assert_allclose(hier["peak hip / rigid [-]"], s, rtol=1e-12)
+    hip = rigid["hip force [N]"].iloc[:350].to_numpy()
+    np.testing.assert_allclose(hier["RMS Δ hip vs rigid [N]"], (1 - s) * np.sqrt(np.mean(hip**2)), rtol=1e-12)
     summ = pd.read_csv(tmp_path / "summary.csv", index_col=0)
     assert summ.loc["rigid", "peak hip force vs rigid [%]"] == 0.0
     assert summ.loc["bushings8", "peak hip force vs rigid [%]"] == pytest.approx(-30.0, abs=0.5)

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import proleg as pl
+from proleg.analyses import sweep as sweep_mod
 from proleg.errors import Status
 
 
@@ -34,8 +35,11 @@ VALUES = {"spring.stiffness": [20.0, 200.0, 1e9], "spring.free_length": [1.0, 0.
 @pytest.fixture(scope="module")
 def swept(system):
     # Two workers: batches of 2 and 1 (padded) run at the same time in two threads, their
-    # Newton matrices factored lane by lane (the concurrent path of sweep).
-    return pl.sweep(system, VALUES, workers=2, **KW)
+    # Newton matrices factored lane by lane (the concurrent path of sweep; allowed here even on
+    # 2 cores: this model has no other batched LAPACK call, see max_concurrent_batches).
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(sweep_mod, "max_concurrent_batches", lambda backend=None: 2)
+        return pl.sweep(system, VALUES, workers=2, **KW)
 
 
 def test_each_variant_equals_its_own_simulation(system, swept):
@@ -187,3 +191,38 @@ def test_default_batch_sizes():
     assert default_batch_size(3, 8, "cpu") == 1
     assert default_batch_size(1000, 1, "gpu") == 1000
     assert default_batch_size(100_000, 1, "gpu") == 25_000
+
+
+def test_concurrent_batches_leave_one_core_free(monkeypatch):
+    """At most cores − 1 batches run at once on the CPU (a batched LAPACK call needs a free
+    thread of XLA's pool, max_concurrent_batches), 1 on an accelerator."""
+    for cores, want in ((1, 1), (2, 1), (3, 2), (16, 15)):
+        monkeypatch.setattr(sweep_mod, "default_workers", lambda c=cores: c)
+        assert sweep_mod.max_concurrent_batches("cpu") == want
+    assert sweep_mod.max_concurrent_batches("gpu") == 1
+
+
+_HANG = """
+from proleg.robots.hyq_study import bushing_study
+tab = bushing_study(t_end=0.02).run(design={"pin_stiffness": [1e6, 1e7, 1e9, 1e10]}, workers=2, batch_size=2, progress=False)
+assert (tab["status"] == "success").all(), tab
+print("ok")
+"""
+
+
+@pytest.mark.slow
+def test_two_batches_of_the_hyq_leg_do_not_hang():
+    """Regression: two vmap batches of the HyQ 8-bushing leg with workers=2 hung on 2 cores
+    (every thread on a futex, no CPU; gdb: both XLA pool threads in a batched LU's
+    ParallelBatchMap waiting for lanes queued on the same pool). Run in a subprocess with a
+    timeout so that a hang fails the test instead of the suite (~30 s of compilation)."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
+    try:
+        out = subprocess.run([sys.executable, "-c", _HANG], capture_output=True, text=True, timeout=420, env=env)
+    except subprocess.TimeoutExpired:
+        pytest.fail("two concurrent vmap batches of the HyQ leg did not finish in 420 s (the futex hang)")
+    assert out.returncode == 0 and out.stdout.strip().endswith("ok"), out.stderr[-2000:]

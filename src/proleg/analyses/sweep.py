@@ -10,9 +10,9 @@ Speed on the CPU. proleg turns XLA-CPU's YNNPACK fusions off at import
 (``proleg.XLA_CPU_DEFAULTS``): under ``vmap`` the small 3×3 products of the element code become
 batched dots that YNNPACK runs lane by lane (1–2 ms per fusion for 1,000 lanes); the plain XLA
 loops are ~3× faster per lane-step on the bench model (bench/vmap_batch.py). Batches run
-concurrently, one per core (``workers``), each factoring its Newton matrices lane by lane
-(jaxlib's batched LU deadlocks two concurrent batches: solvers/galpha.py
-``StepOptions.lu_per_lane``). Each variant steps through its output times on its own
+concurrently, up to one fewer than the cores (``workers``, :func:`max_concurrent_batches`: a
+batched LAPACK call needs a free thread of XLA's pool), each factoring its Newton matrices
+lane by lane (solvers/galpha.py ``StepOptions.lu_per_lane``). Each variant steps through its output times on its own
 (``simulate(free_running=True)``), but the batch's loop runs until the slowest variant is done:
 variants with very different step counts waste work, so group them.
 On a GPU the same call runs every variant in parallel (bench/gpu_batch.py).
@@ -61,6 +61,23 @@ def default_workers() -> int:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # not Linux
         return max(1, os.cpu_count() or 1)
+
+
+def max_concurrent_batches(backend: str | None = None) -> int:
+    """How many batches :func:`sweep` runs at once in threads: on the CPU one fewer than the
+    cores this process may use (at least 1), elsewhere 1.
+
+    Why not one per core: XLA-CPU runs each batch on its intra-op thread pool, which has one
+    thread per core, and a batched LAPACK call left in a vmapped simulation (jaxlib's
+    ``ParallelBatchMap``; ``lu_per_lane`` removes the Newton step's but not every solve, e.g.
+    the consistent initial conditions) queues its lanes on that same pool and waits for them.
+    With every pool thread running a batch, nobody runs the lanes: each batch waits on a futex
+    forever (gdb on the HyQ 8-bushing leg, two batches of 2 on 2 cores: both pool threads in
+    ``LuDecompositionKernel`` → ``ParallelBatchMap`` → ``BlockingCounter::Wait``). One free
+    thread is enough for the queued lanes to run."""
+    if (backend or jax.default_backend()) != "cpu":
+        return 1
+    return max(1, default_workers() - 1)
 
 
 class SweepResult:
@@ -163,7 +180,8 @@ def sweep(
     ``system.with_params``, each with one value per variant), all in one compiled ``jax.vmap``
     batch. ``batch_size`` splits a long sweep into batches of that many variants (one
     compilation: the last batch is padded). ``workers`` batches run at the same time, each in
-    its own thread (default: on the CPU, one per core this process may use; elsewhere 1); with
+    its own thread (default: on the CPU, one per core this process may use; elsewhere 1; at most
+    :func:`max_concurrent_batches` at once, one fewer than the cores, so 1 on 2 cores); with
     ``batch_size`` unset the variants are split into ``workers`` equal batches of at most
     ``CPU_BATCH_CAP`` (256) variants on the CPU, ``ACCEL_BATCH_CAP`` (25,000) on a GPU
     (:func:`default_batch_size`). Other keywords go to :func:`proleg.simulate` (tolerances,
@@ -195,7 +213,8 @@ def sweep(
     else:
         bs = max(1, min(int(batch_size), n))
     n_batches = math.ceil(n / bs)
-    concurrent = workers > 1 and n_batches > 1
+    threads = min(workers, n_batches, max_concurrent_batches())
+    concurrent = threads > 1
     meta = {}
 
     def one(vals):
@@ -223,11 +242,11 @@ def sweep(
         if concurrent:
             # XLA releases the GIL while a batch runs, and with proleg's scheduler setting each
             # batch keeps to one core: concurrent batches use the others (bench/vmap_batch.py).
-            # Their Newton matrices are factored lane by lane (``lu_per_lane``): jaxlib's batched
-            # LU waits on the shared thread pool and deadlocks two concurrent batches.
+            # Their Newton matrices are factored lane by lane (``lu_per_lane``), and one pool
+            # thread stays free for any other batched LAPACK call (max_concurrent_batches).
             from concurrent.futures import as_completed
 
-            pool = ThreadPoolExecutor(min(workers, n_batches))
+            pool = ThreadPoolExecutor(threads)
             try:
                 futures = {pool.submit(run, b): b for b in range(n_batches)}
                 for f in as_completed(futures):

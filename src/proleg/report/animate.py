@@ -168,6 +168,60 @@ def _scene(t, names, shapes, meshes, pose, lines, pts, contacts, cdata, title):
     }
 
 
+def _unb64(b: str, shape_tail: tuple, dtype=np.float32) -> np.ndarray:
+    return np.frombuffer(base64.b64decode(b), dtype=dtype).reshape(-1, *shape_tail)
+
+
+def combine_scenes(scenes: dict, spacing: float | None = None) -> dict:
+    """One scene holding several (``{label: scene}``, e.g. the same test with three joint
+    models), side by side along y, ``spacing`` [m] apart (default: 1.2 × the widest scene's
+    extent + 0.4 m). Part, line and contact names get a ``"label: "`` prefix. Every scene must have
+    the same frame times (the same output times and ``max_frames``)."""
+    items = list(scenes.items())
+    if not items:
+        raise ValueError("combine_scenes: no scenes given.")
+    t0 = np.asarray(items[0][1]["t"])
+    for label, sc in items[1:]:
+        if len(sc["t"]) != len(t0) or not np.allclose(sc["t"], t0, rtol=0, atol=1e-9):
+            raise ValueError(
+                f"combine_scenes: scene '{label}' has other frame times than '{items[0][0]}'; "
+                "animate results with the same output times and max_frames."
+            )
+    n = len(t0)
+    if spacing is None:
+        # the bounds hold the parts' origins, not their shapes: 0.4 m more for the bodies drawn around them
+        spacing = 1.2 * max(max(sc["bounds"][1][k] - sc["bounds"][0][k] for k in range(2)) for _, sc in items) + 0.4
+    parts, meshes, lines, contacts, poses, lps, cds, lo, hi = [], {}, [], [], [], [], [], [], []
+    for i, (label, sc) in enumerate(items):
+        dy = np.array([0.0, (i - 0.5 * (len(items) - 1)) * spacing, 0.0], np.float32)
+        parts += [{**p, "name": f"{label}: {p['name']}"} for p in sc["parts"]]
+        meshes.update(sc["meshes"])
+        lines += [{**x, "name": f"{label}: {x['name']}"} for x in sc["lines"]]
+        contacts += [{**x, "name": f"{label}: {x['name']}"} for x in sc["contacts"]]
+        pose = _unb64(sc["pose"], (len(sc["parts"]), 7)).copy()
+        pose[..., :3] += dy
+        lp = _unb64(sc["line_pts"], (len(sc["lines"]), 6)).copy() if sc["lines"] else np.zeros((n, 0, 6), np.float32)
+        lp[..., :3] += dy
+        lp[..., 3:] += dy
+        cd = _unb64(sc["contact_data"], (len(sc["contacts"]), 6)).copy() if sc["contacts"] else np.zeros((n, 0, 6), np.float32)
+        cd[..., :3] += dy
+        poses.append(pose), lps.append(lp), cds.append(cd)
+        lo.append(np.asarray(sc["bounds"][0]) + dy), hi.append(np.asarray(sc["bounds"][1]) + dy)
+    return {
+        "title": " | ".join(label for label, _ in items),
+        "t": t0.tolist(),
+        "parts": parts,
+        "meshes": meshes,
+        "pose": _b64(np.concatenate(poses, 1)),
+        "lines": lines,
+        "line_pts": _b64(np.concatenate(lps, 1)),
+        "contacts": contacts,
+        "contact_data": _b64(np.concatenate(cds, 1)),
+        "bounds": [np.min(lo, 0).tolist(), np.max(hi, 0).tolist()],
+        "force_max": max(float(sc["force_max"]) for _, sc in items),
+    }
+
+
 def page(scene: dict, title: str | None = None) -> str:
     """The self-contained HTML page for a scene."""
     title = _html.escape(title or f"proleg: {scene['title']}")
@@ -194,10 +248,17 @@ def animate(result, path=None, *, model=None, title: str | None = None, max_fram
     return text
 
 
-def animation_iframe(result, *, height: int = 480, **kw) -> str:
-    """An ``<iframe srcdoc>`` holding the animation page, for ``Report.add_html`` (several may share a report)."""
-    text = animate(result, **kw)
+def scene_iframe(scene: dict, *, height: int = 480, title: str | None = None) -> str:
+    """An ``<iframe srcdoc>`` holding the page of a scene (:func:`scene_from_result`,
+    :func:`combine_scenes`), for ``Report.add_html``; a scene is plain JSON data, so a worker
+    process can build it and send it back instead of the Result."""
+    text = page(scene, title)
     return f'<iframe style="width:100%;height:{int(height)}px;border:1px solid #ccc" srcdoc="{_html.escape(text, quote=True)}"></iframe>'
+
+
+def animation_iframe(result, *, height: int = 480, model=None, title: str | None = None, max_frames: int = 600) -> str:
+    """An ``<iframe srcdoc>`` holding the animation page, for ``Report.add_html`` (several may share a report)."""
+    return scene_iframe(scene_from_result(result, model=model, max_frames=max_frames), height=height, title=title)
 
 
 _PLAYER = r"""

@@ -15,11 +15,24 @@ its stance, HyQ lands on four feet and settles; the report compares
   moment, about joint k's axis a_k through its origin p_k, of the gravity of every part beyond
   the joint and of the foot's ground reaction).
 
-Status (issue 19): the model, the closed forms and the report are written and the model tests
-pass; the 1.5 s drop-and-settle simulation did not finish within 25 minutes on the shared
-2-core development machine (suspect: foot stiction with v_stiction = 1 mm/s forcing small
-steps, to be profiled), so the 1 % checks (tests/test_hyq_robot.py::test_hyq_stand, slow)
-have not been seen passing yet.
+Choosing values (profiled on ``proleg run hyq-stand``, 1.5 s):
+
+* foot friction μ_s 0.9, μ_d 0.7 with the stiction and friction transition velocities of MSC
+  Adams' contact defaults, 0.1 and 1 m/s. With v_stiction = 1 mm/s a stuck foot is a tangential
+  damper of μ_s F_n / v_s ≈ 3e5 N s/m on a sub-kilogram lower leg, and between 1 and 10 mm/s the
+  friction falls with speed (negative damping): after touchdown the run took 2,511 steps,
+  960 rejected, 13,624 Newton iterations for 10 ms of simulated time. With 0.1 / 1 m/s the whole
+  run takes ~1,600 steps (the 1 kHz servo sampling bounds the step at 1 ms). The price is creep:
+  a foot carrying a tangential load F_t slides at about v_s F_t / (μ_s F_n) — here ~1 cm/s under
+  the ~35 N with which the splayed legs push outward, slow enough for the static checks (the
+  GRF and torque tables are read at one instant; the joint rates it causes are ~0.03 rad/s).
+* servo D = 30 N m s/rad (P = 300 N m/rad, seed 000's high gain): with seed 000's D = 6 the
+  trunk bounces on its four legs at ~2 Hz with a damping ratio of ~0.1 (the legs' vertical
+  stiffness ~P/l² and damping ~D/l², l ≈ 0.3 m) and still rocks by ±15 N per foot at 1.5 s;
+  D = 30 damps that mode near critically and is still stable at 1 kHz on the lightest link
+  (D T / J ≈ 0.8 for the lower leg about the knee; proleg warns about unstable servos).
+* ``jacobian_reuse`` (modified Newton): 132 Newton-matrix builds instead of ~1,600, the same
+  1 % results.
 """
 
 from __future__ import annotations
@@ -57,7 +70,7 @@ def stance_positions(haa=STANCE["haa"], hfe=STANCE["hfe"], kfe=STANCE["kfe"]) ->
 
 
 def hyq(
-    *, drop: float = 0.10, stance: dict | None = None, kp: float = 300.0, kd: float = 6.0, servo_period: float = 1e-3,
+    *, drop: float = 0.10, stance: dict | None = None, kp: float = 300.0, kd: float = 30.0, servo_period: float = 1e-3,
     contact: dict | None = None, urdf=None,
 ):
     """The HyQ quadruped model, standing ``drop`` [m] above the ground (feet clear by ``drop``).
@@ -66,17 +79,19 @@ def hyq(
     ----------
     drop : float [m], foot-sphere clearance at t = 0
     stance : dict joint → URDF position [rad], default :func:`stance_positions`; also the servo setpoints
-    kp, kd : PD gains [N m/rad, N m s/rad] (seed 000 high gain P = 300, D = 6)
+    kp, kd : PD gains [N m/rad, N m s/rad] (seed 000 high gain P = 300; D = 30 for the whole
+        robot, module docstring)
     servo_period : float [s] (1 kHz)
     contact : dict of :class:`proleg.SphereContact` keywords; default Hertz k = 2e6 N/m^1.5
-        (≈ 2.4 mm at a quarter of the weight), damping 4e3 N s/m over 1 mm, μ_s 0.9, μ_d 0.7
+        (≈ 2.4 mm at a quarter of the weight), damping 4e3 N s/m over 1 mm, μ_s 0.9, μ_d 0.7,
+        transition velocities v_stiction 0.1 m/s, v_friction 1 m/s (module docstring)
     urdf : path of the URDF (default: example-robot-data's hyq_no_sensors.urdf)
     """
     from ..io.urdf import UrdfWarning, load_urdf
     from ..model.control import PID
 
     q0 = stance_positions() if stance is None else dict(stance)
-    c = dict(stiffness=2e6, exponent=1.5, damping=4e3, penetration=1e-3, mu_static=0.9, mu_dynamic=0.7, v_stiction=1e-3, v_friction=1e-2)
+    c = dict(stiffness=2e6, exponent=1.5, damping=4e3, penetration=1e-3, mu_static=0.9, mu_dynamic=0.7, v_stiction=0.1, v_friction=1.0)
     c.update(contact or {})
     path = hyq_urdf_path() if urdf is None else Path(urdf)
     with warnings.catch_warnings():
@@ -96,8 +111,11 @@ def weight_share(feet_xy, com_xy, weight):
     return np.linalg.pinv(A) @ b
 
 
-def static_torques(result, k: int = -1):
-    """Static closed-form joint torques [N m] at output ``k`` (module docstring), per URDF joint."""
+def static_torques(result, k: int = -1, feet: dict | None = None):
+    """Static closed-form joint torques [N m] at output ``k`` (module docstring), per URDF joint.
+
+    ``feet``: optional {leg: (force (3,) [N], point (3,) [m])} in place of the result's foot
+    contact forces (used to check the closed form against Pinocchio without a simulation)."""
     model = result.system.topo.model
     g = np.asarray(model.gravity)
     info = model.urdf
@@ -106,8 +124,11 @@ def static_torques(result, k: int = -1):
     for leg in LEGS:
         names = [f"{leg}_haa_joint", f"{leg}_hfe_joint", f"{leg}_kfe_joint"]
         chain = [f"{leg}_hipassembly", f"{leg}_upperleg", f"{leg}_lowerleg"]
-        grf = result.contact(f"{leg}_foot.contact")
-        F_foot, r_foot = np.asarray(grf["force"])[k], np.asarray(grf["point"])[k]
+        if feet is not None:
+            F_foot, r_foot = (np.asarray(x, float) for x in feet[leg])
+        else:
+            grf = result.contact(f"{leg}_foot.contact")
+            F_foot, r_foot = np.asarray(grf["force"])[k], np.asarray(grf["point"])[k]
         for i, jn in enumerate(names):
             p = result.marker(f"{jn}.J").position[k]
             a = result.marker(f"{jn}.J").orientation[k][:, 2]
@@ -119,15 +140,17 @@ def static_torques(result, k: int = -1):
     return out
 
 
-def stand(t_end: float = 1.5, dt_output: float = 2e-3, progress: bool = False, **kw):
-    """Simulate the drop-and-settle; returns (result, table of feet, table of joints)."""
+def stand(t_end: float = 1.5, dt_output: float = 2e-3, progress: bool = False, simulate_kw: dict | None = None, **kw):
+    """Simulate the drop-and-settle (``kw`` to :func:`hyq`, ``simulate_kw`` to
+    :func:`proleg.simulate`, default modified Newton); returns (result, table of feet, table of
+    joints, {"weight [N]", "com"})."""
     import pandas as pd
 
     from ..analyses.simulate import simulate
     from ..assembly.system import assemble
 
     model = hyq(**kw)
-    res = simulate(assemble(model), t_end=t_end, dt_output=dt_output, progress=progress)
+    res = simulate(assemble(model), t_end=t_end, dt_output=dt_output, progress=progress, **{"jacobian_reuse": True, **(simulate_kw or {})})
     W = -sum(p.mass for p in model.parts) * model.gravity[2]
     masses = np.array([p.mass for p in model.parts])
     com = masses @ np.stack([res.part(p.name).position[-1] for p in model.parts]) / masses.sum()
@@ -140,7 +163,7 @@ def stand(t_end: float = 1.5, dt_output: float = 2e-3, progress: bool = False, *
     tau_cf = static_torques(res)
     rows = []
     for jn in model.urdf.joint_names():
-        tau = float(np.asarray(res.controller(f"{jn}.servo")["effort"])[-1])
+        tau = float(np.asarray(res.controller(f"{jn}.servo")["output"])[-1])
         rows.append({"joint": jn, "angle [rad]": float(res.joint(jn).angle[-1]), "servo torque [N m]": tau, "static closed form [N m]": tau_cf[jn], "difference [N m]": tau - tau_cf[jn]})
     return res, feet, pd.DataFrame(rows), {"weight [N]": W, "com": com}
 
@@ -163,8 +186,9 @@ def run_stand(out_dir="results/hyq-stand", progress: bool = True, *, t_end: floa
     joints.to_csv(out / "joints.csv", index=False)
     rep = Report("HyQ stands: drop from 10 cm onto four feet", f"proleg.robots.hyq from {Path(hyq_urdf_path()).name}; weight {extra['weight [N]']:.1f} N")
     rep.add_text(
-        "The whole HyQ (13 parts from the URDF, 12 PD-servoed joints, P = 300 N m/rad, D = 6 N m s/rad at 1 kHz) is released "
-        "with its feet 10 cm above the ground and settles. Weight share: least-norm vertical forces carrying the weight "
+        "The whole HyQ (13 parts from the URDF, 12 PD-servoed joints, P = 300 N m/rad, D = 30 N m s/rad at 1 kHz; "
+        "Hertz foot contacts with friction μ 0.9/0.7 and Adams' default transition velocities 0.1/1 m/s, so a loaded foot "
+        "creeps at ~1 cm/s) is released with its feet 10 cm above the ground and settles. Weight share: least-norm vertical forces carrying the weight "
         "with the COM where it settled (exact for a rigid trunk on four equal legs). Static closed form: moment of the "
         "distal parts' gravity and the foot reaction about each joint axis."
     )
@@ -182,4 +206,6 @@ def run_stand(out_dir="results/hyq-stand", progress: bool = True, *, t_end: floa
     plt.close(fig)
     rep.add_table(feet, "Static vertical GRF per foot against its weight share (last output)")
     rep.add_table(joints, "Servo torques against the static closed form (last output)")
+    st = res.stats
+    rep.add_key_values({"steps": st["steps"], "rejected": st["rejected"], "Newton iterations": st["newton_iterations"], "Newton matrices": st["jacobians"]}, "Run (generalized-α, rtol 1e-6, modified Newton)")
     return rep.save(out / "report.html")

@@ -19,6 +19,8 @@ LABELS = {"rigid": "RCM (rigid pins)", "bushings4": "FCM, 4 bushings (1, 2, 3, 6
 COLORS = {"rigid": "#1f5fa8", "bushings4": "#d9822b", "bushings8": "#2a9d4b", "bench": "#555555"}
 SWEEP_STIFFNESS = (1e6, 1e7, 1e8, 1e9, 1e10)  # [N/m] radial pin stiffness of the hierarchy sweep
 SWEEP_T_END = 0.35  # [s] first impact and the rebound
+NOMINAL_PIN_STIFFNESS = D.BUSHING_RADIAL_STIFFNESS  # [N/m]: the 8-bushing drop itself is that row
+ANIMATION_FRAMES = 300  # frames of the 3D animation per model (every 4 ms of a 1.2 s drop)
 SEED_FIGS = {
     "rigid": ("seed 001 Fig. 4", "seed 001 Fig. 5", "seed 001 Fig. 6"),
     "bushings4": ("seed 001 Fig. 7", "seed 001 Fig. 8", "seed 001 Fig. 9"),
@@ -201,19 +203,31 @@ def energy_table(frames: dict) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def hierarchy_table(sweep: dict, rigid: pd.DataFrame) -> pd.DataFrame:
-    """Peak forces of the stiffness sweep and RMS differences from the rigid model over the
-    same time span."""
+def hierarchy_row(df: pd.DataFrame, rigid: pd.DataFrame) -> dict:
+    """Peak cylinder forces of one drop record and their RMS differences from the rigid model
+    over the same output times (the quantities :func:`proleg.robots.hyq_study.hierarchy_rows`
+    computes in the study)."""
+    r = rigid.iloc[: len(df)]
+    row = {}
+    for side in ("hip", "knee"):
+        col = f"{side} force [N]"
+        row[f"peak {side} force [N]"] = float(df[col].abs().max())
+        row[f"RMS Δ {side} vs rigid [N]"] = float(np.sqrt(np.mean((df[col].to_numpy() - r[col].to_numpy()) ** 2)))
+    return row
+
+
+def hierarchy_table(sweep: dict, rigid: pd.DataFrame, t_end: float = SWEEP_T_END) -> pd.DataFrame:
+    """Peak forces of the stiffness sweep ({k: :func:`hierarchy_row`-like dict}) and RMS
+    differences from the rigid model, with the peaks relative to the rigid model's over the first
+    ``t_end`` seconds."""
+    r = rigid[rigid["time [s]"] <= t_end + 1e-12]
     rows = []
-    for k, df in sorted(sweep.items()):
-        n = len(df)
-        r = rigid.iloc[:n]
+    for k, h in sorted(sweep.items()):
         row = {"pin radial stiffness [N/m]": k}
         for side in ("hip", "knee"):
-            col = f"{side} force [N]"
-            row[f"peak {side} force [N]"] = float(df[col].abs().max())
-            row[f"peak {side} / rigid [-]"] = float(df[col].abs().max() / r[col].abs().max())
-            row[f"RMS Δ {side} vs rigid [N]"] = float(np.sqrt(np.mean((df[col].to_numpy() - r[col].to_numpy()) ** 2)))
+            row[f"peak {side} force [N]"] = h[f"peak {side} force [N]"]
+            row[f"peak {side} / rigid [-]"] = h[f"peak {side} force [N]"] / float(r[f"{side} force [N]"].abs().max())
+            row[f"RMS Δ {side} vs rigid [N]"] = h[f"RMS Δ {side} vs rigid [N]"]
         rows.append(row)
     return pd.DataFrame(rows)
 
@@ -252,9 +266,11 @@ def pin_table() -> pd.DataFrame:
 # the drop report
 # ------------------------------------------------------------------------------------------
 def _drop_job(job: dict) -> dict:
-    """One model's drop and, for the 8-bushing model, the bench variant and the pin-stiffness
-    sweep on the same compiled System (``with_params``: no recompilation). Module-level so that
-    worker processes can run it; returns picklable data only (tables, HyQInfo, run statistics)."""
+    """One model's drop and, for the 8-bushing model, the bench variant on the same compiled
+    System (``with_params``: no recompilation). Module-level so that
+    worker processes can run it; returns picklable data only (tables, HyQInfo, run statistics,
+    and the 3D animation's scene: JSON data at ``ANIMATION_FRAMES`` frames)."""
+    from ..report.animate import scene_from_result
     from .hyq_tests import bench_variant, drop_test, instrument, variant_system
 
     t0 = time.perf_counter()
@@ -267,7 +283,9 @@ def _drop_job(job: dict) -> dict:
         "info": d.models["drop"].hyq,
         "runs": [{"model": job["joints"], "steps": st["steps"], "rejected": st["rejected"], "Newton iterations": st["newton_iterations"], "wall time [s]": time.perf_counter() - t0}],
         "bench": None,
+        "scene": scene_from_result(d.result, max_frames=ANIMATION_FRAMES),
     }
+    out["runs"][0]["wall time [s]"] = time.perf_counter() - t0
     if job.get("bench"):
         t0 = time.perf_counter()
         kw = bench_variant(0, gain=job["gain"], actuators="drop")
@@ -275,35 +293,53 @@ def _drop_job(job: dict) -> dict:
         out["bench"] = instrument(b.tables["channels"], np.random.default_rng(1))
         bst = b.result.stats
         out["runs"].append({"model": "bench variant (bushings8, perturbed)", "steps": bst["steps"], "rejected": bst["rejected"], "Newton iterations": bst["newton_iterations"], "wall time [s]": time.perf_counter() - t0})
-    out["sweep"] = {}
-    nominal = float(d.models["drop"].hyq.bushing_stiffness[0])
-    for k in job.get("sweep", ()):
-        t_sweep = min(job["t_end"], SWEEP_T_END)
-        if k == nominal:  # the nominal run itself
-            ch = out["channels"]
-            out["sweep"][k] = ch[ch["time [s]"] <= t_sweep + 1e-12].reset_index(drop=True)
-            continue
-        t0 = time.perf_counter()
-        b = drop_test(system=variant_system(d.systems["drop"], bushing_stiffness=k), t_end=t_sweep, light=True)
-        out["sweep"][k] = b.tables["channels"]
-        bst = b.result.stats
-        out["runs"].append({"model": f"bushings8, k = {k:g} N/m", "steps": bst["steps"], "rejected": bst["rejected"], "Newton iterations": bst["newton_iterations"], "wall time [s]": time.perf_counter() - t0})
     return out
+
+
+def _sweep_job(job: dict) -> dict:
+    """The hierarchy sweep: the 8-bushing leg's drop for each pin stiffness of ``job["sweep"]``
+    over ``SWEEP_T_END``, through the study :func:`proleg.robots.hyq_study.hierarchy_rows` (one
+    vmap batch) against the rigid leg's forces ``job["rigid"]``."""
+    from .hyq_study import hierarchy_rows
+
+    t0 = time.perf_counter()
+    rows = hierarchy_rows(job["sweep"], job["rigid"], gain=job["gain"], drop_height=job["drop_height"])
+    runs = [
+        {"model": f"bushings8, k = {k:g} N/m (study, vmap batches of 2)", "steps": h["steps"], "rejected": np.nan, "Newton iterations": h["Newton iterations"], "wall time [s]": h["wall time [s]"]}
+        for k, h in rows.items()
+    ]
+    runs[-1]["wall time [s]"] = time.perf_counter() - t0 - sum(r["wall time [s]"] for r in runs[:-1])
+    return {"sweep": rows, "runs": runs}
 
 
 def simulate_drops(*, t_end=1.2, gain="high", drop_height=0.05, bench=True, sweep=True, progress=False, workers=None) -> list[dict]:
     """Run :func:`_drop_job` for the three models, in ``workers`` processes (default: one per
     model when the machine has ≥ 2 cores; each model compiles its own simulation, which is
-    most of the time). ``workers=1`` runs in this process. With ``sweep`` the 8-bushing job also
-    runs the first ``SWEEP_T_END`` seconds with the pin stiffness of ``SWEEP_STIFFNESS`` (the
-    seed 001 hierarchy; same compiled System)."""
+    most of the time). ``workers=1`` runs in this process. With ``sweep``, once the rigid model
+    is done, a fourth job runs the first ``SWEEP_T_END`` seconds of the 8-bushing leg with the
+    pin stiffness of ``SWEEP_STIFFNESS`` (the seed 001 hierarchy) as a study
+    (:func:`_sweep_job`); its rows go to the 8-bushing output as ``sweep``."""
     import os
 
     jobs = [
-        dict(joints=n, gain=gain, drop_height=drop_height, t_end=t_end, progress=False, bench=bench and n == "bushings8",
-             sweep=SWEEP_STIFFNESS if (sweep and n == "bushings8") else ())
+        dict(joints=n, gain=gain, drop_height=drop_height, t_end=t_end, progress=False, bench=bench and n == "bushings8")
         for n in MODELS
     ]
+
+    def sweep_job(rigid_out):
+        ch = rigid_out["channels"]
+        ref = ch.loc[ch["time [s]"] <= SWEEP_T_END + 1e-12, ["time [s]", "hip force [N]", "knee force [N]"]].reset_index(drop=True)
+        return dict(sweep=[k for k in SWEEP_STIFFNESS if k != NOMINAL_PIN_STIFFNESS], rigid=ref, gain=gain, drop_height=drop_height)
+
+    def attach(outs, sw):
+        """The study's rows and, for the nominal stiffness, the 8-bushing drop itself."""
+        b8 = next(o for o in outs if o["name"] == "bushings8")
+        rigid = next(o for o in outs if o["name"] == "rigid")["channels"]
+        nominal = b8["channels"][b8["channels"]["time [s]"] <= SWEEP_T_END + 1e-12].reset_index(drop=True)
+        b8["sweep"] = {**sw["sweep"], NOMINAL_PIN_STIFFNESS: hierarchy_row(nominal, rigid)}
+        b8["runs"] += sw["runs"]
+        return outs
+
     n_cpu = os.cpu_count() or 1
     workers = (len(jobs) if n_cpu >= 2 else 1) if workers is None else int(workers)
     if workers > 1:
@@ -313,12 +349,14 @@ def simulate_drops(*, t_end=1.2, gain="high", drop_height=0.05, bench=True, swee
         try:
             with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
                 futures = [pool.submit(_drop_job, j) for j in jobs[::-1]]  # the bench job is longest: start it first
-                outs = []
-                for f in futures:
+                outs, fsweep = [], None
+                for f in futures[::-1]:  # rigid first: the sweep starts as soon as it is done
                     outs.append(f.result())
                     if progress:
                         print(f"hyq-drop: {outs[-1]['name']} done ({outs[-1]['runs'][0]['wall time [s]']:.1f} s)", flush=True)
-                return outs[::-1]
+                    if sweep and outs[-1]["name"] == "rigid":
+                        fsweep = pool.submit(_sweep_job, sweep_job(outs[-1]))
+                return attach(outs, fsweep.result()) if fsweep is not None else outs
         except (OSError, RuntimeError) as exc:  # no process support here: fall back to serial
             if progress:
                 print(f"hyq-drop: worker processes unavailable ({exc}); running serially", flush=True)
@@ -328,7 +366,7 @@ def simulate_drops(*, t_end=1.2, gain="high", drop_height=0.05, bench=True, swee
         outs.append(_drop_job(j))
         if progress:
             print(f"hyq-drop: {j['joints']} done ({outs[-1]['runs'][0]['wall time [s]']:.1f} s)", flush=True)
-    return outs
+    return attach(outs, _sweep_job(sweep_job(outs[0]))) if sweep else outs
 
 
 def drop_report(
@@ -345,7 +383,8 @@ def drop_report(
 
 def write_drop_report(out_dir, outs: list[dict], *, t_end: float, gain: str = "high", drop_height: float = 0.05, wall0=None) -> Path:
     """Files and HTML report from the outputs of :func:`simulate_drops` (one dict per model:
-    ``name``, ``channels``, ``summary``, ``info``, ``runs``, ``bench``)."""
+    ``name``, ``channels``, ``summary``, ``info``, ``runs``, ``bench``, optional ``scene`` (the
+    3D animation's data) and, for one model, ``sweep`` ({k: :func:`hierarchy_row`-like dict}))."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     wall0 = time.perf_counter() if wall0 is None else wall0
@@ -386,6 +425,17 @@ def write_drop_report(out_dir, outs: list[dict], *, t_end: float, gain: str = "h
     rep.add_heading("What was simulated")
     rep.add_text(_INTRO.format(h=drop_height * 100, t_end=t_end))
     rep.add_heading("Results")
+    scenes = {LABELS[o["name"]].split(",")[0] if o["name"] == "rigid" else LABELS[o["name"]]: o["scene"] for o in outs if o.get("scene")}
+    if scenes:
+        from ..report.animate import combine_scenes, scene_iframe
+
+        rep.add_heading("3D animation", level=3)
+        rep.add_html(scene_iframe(combine_scenes(scenes), height=460, title="HyQ leg drop: " + ", ".join(scenes)))
+        rep.add_text(
+            "The three models side by side (left to right: " + "; ".join(scenes) + "), released together; "
+            "parts drawn as boxes of their mass and inertia, cylinders and bushings as lines, the foot contact force as an arrow. "
+            "Drag to turn the camera, scroll to zoom."
+        )
     for fig, cap in figs:
         rep.add_figure(fig, cap)
     rep.add_table(
