@@ -136,4 +136,4 @@ def test_cli_view_writes_the_page(swing, tmp_path):
     assert any(s["kind"] == "cylinder" for p in scene["parts"] for s in p["shapes"])  # from the URDF, not inertia boxes
     assert len(scene["t"]) == len(swing.t)
     bad = CliRunner().invoke(app, ["view", str(tmp_path / "nothere.parquet"), "--no-open"])
-    assert bad.exit_code == 2 and "nothere.parquet not found" in " ".join(bad.output.split())  # rich wraps lines
+    assert bad.exit_code == 2 and "nothere.parquetnotfound" in "".join(bad.output.split())  # rich wraps lines, even mid-word
