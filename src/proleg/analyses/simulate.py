@@ -14,7 +14,7 @@ import numpy as np
 from ..assembly.coordinates import coordinate_set
 from ..assembly.system import System, constraints, generalized_forces, power_terms
 from ..errors import ConvergenceError, SolverError, Status
-from ..solvers.driver import DriverOptions, advance, sample_controllers
+from ..solvers.driver import DriverOptions, advance, knot, sample_controllers
 from ..solvers.galpha import GeneralizedAlpha, StepOptions, StepState
 from ..solvers.initial import _normalize_p, kkt_accelerations, mass_matrix
 from .placement import _any_traced, is_traced, placed
@@ -104,6 +104,12 @@ def initial_z(system: System):
     return jnp.concatenate(parts) if parts else jnp.zeros(0)
 
 
+def motion_breakpoints(system: System) -> tuple:
+    """Times [s] where a motion law's derivatives jump, as declared by ``Motion(breakpoints=...)``:
+    the integrator steps to each exactly instead of interpolating across it."""
+    return tuple(sorted({float(b) for o in system.topo.ct.owners for b in (getattr(o, "breakpoints", None) or ())}))
+
+
 def sample_period(system: System):
     periods = [g.period for g in system.topo.extensions if getattr(g, "period", None)]
     if not periods:
@@ -148,7 +154,8 @@ def simulate(
     integrator : GeneralizedAlpha (default, ρ∞ = 0.8) or HHT
     rtol, atol, atol_p : local error tolerances (relative; translations [m]; Euler parameters [-])
     fixed_step : float [s], optional — a fixed step (no error control); output times must be multiples
-    dt_max : float [s], default min(dt_output, 1e-2)
+    dt_max : float [s], default min(t_end − t0, 1e-2) — not tied to the output times: outputs
+        between steps come from the step's dense output (solvers/driver.py)
     progress : show a progress bar (default: on when stderr is a terminal and the run has several chunks)
     throw : raise :class:`SolverError` on failure (its ``.result`` holds what was computed);
         otherwise return a Result whose ``status``/``message`` say what happened
@@ -190,17 +197,17 @@ def simulate(
         t0 = float(times[0]) if t0 == 0.0 and times[0] > 0 else t0
     if not t_end > t0:
         raise ValueError(f"t_end ({t_end}) must be greater than t0 ({t0}).")
-    dt_out = float(np.min(np.diff(times))) if len(times) > 1 else t_end - t0
-    dt_out = float(f"{dt_out:.10g}")  # a static option: strip round-off so t_end changes do not recompile
     dopts = DriverOptions(
         step=StepOptions(
             rtol=rtol, atol=atol, atol_p=atol if atol_p is None else atol_p, max_newton=max_newton,
             jacobian_reuse=bool(jacobian_reuse and jacobian_refresh), lu_per_lane=bool(lu_per_lane),
         ),
         dt_min=dt_min,
-        dt_max=float(dt_max if dt_max is not None else min(dt_out, 1e-2)),
+        # a static option: strip round-off so t_end changes do not recompile
+        dt_max=float(dt_max if dt_max is not None else f"{min(t_end - t0, 1e-2):.10g}"),
         fixed_step=fixed_step,
         sample_period=sample_period(system),
+        breakpoints=motion_breakpoints(system),
     )
     z0 = initial_z(system)
     q, v, qdd, lam, z0, (pw, g0) = _consistent_state(system, q0, v0, t0, z0)
@@ -219,8 +226,10 @@ def simulate(
     )
     h = jnp.asarray(dt_init if dt_init is not None else (fixed_step or min(1e-4, dopts.dt_max)), jnp.float64)
     st = st._replace(h_prev=h)
+    seg = (knot(st), knot(st))  # the last accepted step (dense output); none yet
 
     out_t = times[1:] if times[0] == t0 else times
+    t_stop = jnp.asarray(out_t[-1], jnp.float64)  # steps never go past the last output
     K = int(min(chunk, max(1, len(out_t))))
     nchunks = int(math.ceil(len(out_t) / K))
     rec = {"q": [q_ic[None]], "v": [v_ic[None]], "w": [jnp.zeros((1, 2))], "z": [z0[None]]}
@@ -242,7 +251,9 @@ def simulate(
             tc = out_t[c * K : (c + 1) * K]
             n_valid = len(tc)
             tpad = np.concatenate([tc, np.full(K - n_valid, tc[-1])])
-            st, h, k, bufs, (ns, nr, nn, nj), stat, ft, wr = advance(dyn, integrator, dopts, st, h, jnp.asarray(tpad), n_valid, free_running)
+            st, h, k, bufs, (ns, nr, nn, nj), stat, ft, wr, seg = advance(
+                dyn, integrator, dopts, st, h, jnp.asarray(tpad), n_valid, free_running, t_stop, seg
+            )
             if dyn.kind != "absolute":
                 bufs = (*_to_absolute(dyn, bufs[0], bufs[1]), *bufs[2:])
             if traced:
