@@ -40,8 +40,8 @@ def pendulum():
 
 
 def run(system, dt_output, **kw):
-    kw = {"rtol": RTOL, "atol": ATOL, "q0": q_rotated(np.pi / 3), "coordinates": "absolute", **kw}
-    return pl.simulate(system, t_end=T_END, dt_output=dt_output, **kw)
+    integrator = pl.GeneralizedAlpha(rtol=RTOL, atol=ATOL, **kw)
+    return pl.simulate(system, t_end=T_END, dt_output=dt_output, integrator=integrator, q0=q_rotated(np.pi / 3), coordinates="absolute")
 
 
 def test_steps_do_not_depend_on_the_output_times(pendulum):
@@ -81,8 +81,8 @@ def test_dense_output_under_vmap_and_jacfwd(pendulum):
 
     def height(m, free):
         s = pendulum.with_params({"rod.mass": m})
-        r = pl.simulate(s, t_end=0.05, dt_output=3e-3, rtol=RTOL, atol=ATOL, q0=q_rotated(np.pi / 3),
-                        coordinates="absolute", free_running=free, progress=False)
+        r = pl.simulate(s, t_end=0.05, dt_output=3e-3, integrator=pl.GeneralizedAlpha(rtol=RTOL, atol=ATOL), q0=q_rotated(np.pi / 3),
+                        coordinates="absolute", run=pl.RunOptions(free_running=free, progress=False))
         return r.q[:, 2]
 
     ms = jnp.array([1.5, 2.5])
@@ -104,7 +104,7 @@ def test_controller_command_changes_only_at_its_sample_times():
     rod = model.add_part("rod", 0.3, (1e-5, 0.3 * 0.25 / 12, 0.3 * 0.25 / 12), (0.25, 0, 0))
     model.add_joint(pl.Revolute("pin", rod, model.ground, at=(0, 0, 0), axis=(0, 0, 1)))
     model.add_controller(pl.PID("servo", joint="pin", kp=62.5, kd=0.75, setpoint=0.5, period=1e-3))
-    r = pl.simulate(pl.assemble(model), t_end=0.05, dt_output=1e-4, rtol=RTOL, atol=ATOL)
+    r = pl.simulate(pl.assemble(model), t_end=0.05, dt_output=1e-4, integrator=pl.GeneralizedAlpha(rtol=RTOL, atol=ATOL))
     u = r.controller("servo").output
     changed = np.flatnonzero(np.diff(u) != 0) + 1
     ticks = np.round(r.t[changed] / 1e-3)
@@ -126,7 +126,7 @@ def test_motion_breakpoints_are_stepped_to():
         model.add_joint(pl.Prismatic("rail", b, model.ground, at=(0, 0, 0), axis=(1, 0, 0)))
         model.add_motion(pl.Motion("lift", joint="rail", displacement=lambda t: pl.fn.step(t, T0, 0.0, T1, X1),
                                    breakpoints=breakpoints))
-        r = pl.simulate(pl.assemble(model), t_end=0.45, dt_output=1e-4, rtol=1e-9, atol=1e-10)
+        r = pl.simulate(pl.assemble(model), t_end=0.45, dt_output=1e-4, integrator=pl.GeneralizedAlpha(rtol=1e-9, atol=1e-10))
         d = np.clip((r.t - T0) / (T1 - T0), 0, 1)
         e_x = np.max(np.abs(r.part("block").position[:, 0] - X1 * d**2 * (3 - 2 * d)))
         e_v = np.max(np.abs(r.part("block").velocity[:, 0] - X1 * 6 * d * (1 - d) / (T1 - T0)))

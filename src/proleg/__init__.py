@@ -112,7 +112,10 @@ from .model.parts import Part as Part
 from .assembly.system import System as System
 from .assembly.system import assemble as assemble
 from .solvers.galpha import HHT as HHT
+from .solvers.galpha import AbstractIntegrator as AbstractIntegrator
 from .solvers.galpha import GeneralizedAlpha as GeneralizedAlpha
+from .analyses.simulate import RunOptions as RunOptions
+from .analyses.simulate import SaveAt as SaveAt
 from .analyses.simulate import simulate as simulate
 from .analyses.sweep import SweepResult as SweepResult
 from .analyses.sweep import sweep as sweep

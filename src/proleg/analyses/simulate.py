@@ -3,8 +3,10 @@ error-controlled implicit integrator over the requested output times."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
+from dataclasses import dataclass
 from functools import partial
 
 import jax
@@ -13,7 +15,7 @@ import numpy as np
 
 from ..assembly.coordinates import coordinate_set
 from ..assembly.system import System, constraints, generalized_forces, power_terms
-from ..errors import ConvergenceError, SolverError, Status
+from ..errors import ConvergenceError, ModelError, SolverError, Status
 from ..solvers.driver import DriverOptions, advance, knot, sample_controllers
 from ..solvers.galpha import GeneralizedAlpha, StepOptions, StepState
 from ..solvers.initial import _normalize_p, kkt_accelerations, mass_matrix
@@ -118,6 +120,108 @@ def sample_period(system: System):
     return float(base)
 
 
+@dataclass(frozen=True)
+class SaveAt:
+    """Which outputs :func:`simulate` returns (Diffrax's ``SaveAt``): every ``dt`` [s] from t0 to
+    t_end (plus t_end), or at the strictly increasing ``times`` [s]. Outputs between steps come
+    from the dense output of the steps (solvers/driver.py), so asking for many costs little."""
+
+    dt: float | None = None
+    times: tuple | np.ndarray | None = None
+
+    def output_times(self, t0: float, t_end: float) -> np.ndarray:
+        if self.times is not None:
+            times = np.asarray(self.times, float).ravel()
+            if times.size == 0 or np.any(np.diff(times) <= 0) or not np.all(np.isfinite(times)):
+                raise ModelError("SaveAt times (output_times) must be finite and strictly increasing [s].")
+            return times
+        dt = (t_end - t0) / 500.0 if self.dt is None else float(self.dt)
+        if not dt > 0:
+            raise ModelError(f"SaveAt dt (dt_output) must be positive [s], got {self.dt}.")
+        n = int(math.floor((t_end - t0) / dt + 1e-9))
+        times = t0 + dt * np.arange(n + 1)
+        if times[-1] < t_end - 1e-12 * max(1.0, abs(t_end)):
+            times = np.append(times, t_end)
+        return times
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """How :func:`simulate` runs (not what it computes).
+
+    Parameters
+    ----------
+    progress : show a progress bar (default: on when stderr is a terminal and the run has
+        several chunks)
+    throw : raise :class:`SolverError` on failure (its ``.result`` holds what was computed);
+        otherwise return a Result whose ``status``/``message`` say what happened
+    on_chunk : callable(Result) called after each chunk (e.g. to write partial results)
+    chunk : output times per compiled call (default 256): the unit of progress, ``on_chunk``
+        and interruption
+    free_running : under ``jax.vmap``, let each variant step through all its output times
+        without waiting for the others at each one (solvers/driver.py ``advance``; what
+        :func:`proleg.sweep` uses); the same results, ~2× fewer batch iterations
+    """
+
+    progress: bool | None = None
+    throw: bool = True
+    on_chunk: object = None
+    chunk: int = 256
+    free_running: bool = False
+
+
+# Old keyword spellings of simulate (one release, with a DeprecationWarning): where they live now.
+_INTEGRATOR_KEYS = ("rtol", "atol", "atol_p", "dt_init", "dt_min", "dt_max", "fixed_step", "max_newton", "jacobian_reuse", "lu_per_lane")
+_RUN_KEYS = ("chunk", "free_running")
+
+
+def simulate_options(integrator=None, run=None, *, warn: bool = False, **flat):
+    """Group flat options (``rtol=``, ``dt_max=``, ``chunk=``, ...) into the integrator object and
+    :class:`RunOptions`; returns (integrator, run). For option dictionaries from files (a study's
+    or model file's ``simulate:`` section), where flat keys are the format; :func:`simulate`
+    itself accepts them for one release with a DeprecationWarning (``warn=True``)."""
+    integrator = integrator if integrator is not None else GeneralizedAlpha()
+    run = run if run is not None else RunOptions()
+    unknown = sorted(set(flat) - set(_INTEGRATOR_KEYS) - set(_RUN_KEYS) - {"jacobian_refresh"})
+    if unknown:
+        raise TypeError(f"simulate() got unexpected keyword argument(s) {unknown}.")
+    integ = {k: flat[k] for k in _INTEGRATOR_KEYS if k in flat}
+    if "jacobian_refresh" in flat:  # False forced a fresh matrix every step: no reuse
+        integ["jacobian_reuse"] = bool(integ.get("jacobian_reuse", integrator.jacobian_reuse) and flat["jacobian_refresh"])
+    runk = {k: flat[k] for k in _RUN_KEYS if k in flat}
+    if warn:
+        import warnings
+
+        iname = type(integrator).__name__
+        old_i = [k for k in flat if k not in _RUN_KEYS]
+        old_r = [k for k in flat if k in _RUN_KEYS]
+        for keys, cls, arg in ((old_i, iname, "integrator"), (old_r, "RunOptions", "run")):
+            if keys:
+                new = ", ".join(f"{'jacobian_reuse' if k == 'jacobian_refresh' else k}=..." for k in keys)
+                warnings.warn(
+                    f"simulate({', '.join(k + '=...' for k in keys)}) is deprecated and will be removed in the next "
+                    f"release: pass {arg}={cls}({new}).", DeprecationWarning, stacklevel=4,
+                )
+    if integ:
+        integrator = dataclasses.replace(integrator, **integ)
+    if runk:
+        run = dataclasses.replace(run, **runk)
+    return integrator, run
+
+
+def simulate_kwargs(kw: dict) -> dict:
+    """``kw`` for :func:`simulate` with flat option keys (``rtol``, ``dt_max``, ``chunk``, ...)
+    moved into ``integrator=`` and ``run=`` (no warning: for option dictionaries from files and
+    studies, whose flat keys are their format)."""
+    old = set(_INTEGRATOR_KEYS) | set(_RUN_KEYS) | {"jacobian_refresh"}
+    flat = {k: v for k, v in kw.items() if k in old}
+    if not flat:
+        return dict(kw)
+    rest = {k: v for k, v in kw.items() if k not in old}
+    integrator, run = simulate_options(rest.pop("integrator", None), rest.pop("run", None), **flat)
+    return {**rest, "integrator": integrator, "run": run}
+
+
 @placed
 def simulate(
     system: System,
@@ -126,89 +230,76 @@ def simulate(
     *,
     t0: float = 0.0,
     output_times=None,
+    saveat: SaveAt | None = None,
     integrator=None,
-    rtol: float = 1e-6,
-    atol: float = 1e-7,
-    atol_p: float | None = None,
-    dt_init: float | None = None,
-    dt_min: float = 1e-10,
-    dt_max: float | None = None,
-    fixed_step: float | None = None,
-    max_newton: int = 10,
-    jacobian_refresh: bool = True,
-    jacobian_reuse: bool = False,
     coordinates: str = "auto",
     q0=None,
     v0=None,
+    run: RunOptions | None = None,
     progress: bool | None = None,
-    throw: bool = True,
-    chunk: int = 256,
+    throw: bool | None = None,
     on_chunk=None,
-    free_running: bool = False,
-    lu_per_lane: bool = False,
+    **deprecated,
 ) -> Result:
     """Integrate ``system`` from ``t0`` to ``t_end``; outputs every ``dt_output`` (or at ``output_times``).
 
     Parameters
     ----------
-    integrator : GeneralizedAlpha (default, ρ∞ = 0.8) or HHT
-    rtol, atol, atol_p : local error tolerances (relative; translations [m]; Euler parameters [-])
-    fixed_step : float [s], optional — a fixed step (no error control); output times must be multiples
-    dt_max : float [s], default min(t_end − t0, 1e-2) — not tied to the output times: outputs
-        between steps come from the step's dense output (solvers/driver.py)
-    progress : show a progress bar (default: on when stderr is a terminal and the run has several chunks)
-    throw : raise :class:`SolverError` on failure (its ``.result`` holds what was computed);
-        otherwise return a Result whose ``status``/``message`` say what happened
-    on_chunk : callable(Result) called after each chunk (e.g. to write partial results)
-    jacobian_reuse : keep the Newton matrix across steps (modified Newton, as in Adams): fewer
-        matrix builds, linear convergence; see :class:`proleg.solvers.galpha.StepOptions`.
-        Under ``jax.vmap`` the rebuild decisions are batch-wide (solvers/batching.py).
-    free_running : under ``jax.vmap``, let each variant step through all its output times
-        without waiting for the others at each one (solvers/driver.py ``advance``; what
-        :func:`proleg.sweep` uses); the same results, ~2× fewer batch iterations
-    lu_per_lane : under ``jax.vmap``, one LAPACK LU call per variant instead of jaxlib's batched
-        LU, which can deadlock when two batches run at once in threads
-        (:class:`proleg.solvers.galpha.StepOptions`; :func:`proleg.sweep` sets it for its workers)
-    jacobian_refresh : accepted for compatibility; ``False`` forces a fresh matrix every step
-        (the default already builds one per step)
-    device : None (default: a single run goes to the CPU even where JAX's default device is a
-        GPU, which is ~8× slower for one variant; inside ``jit``/``vmap`` JAX places it), a
-        platform name ("cpu", "gpu", ...), "default", or a ``jax.Device`` (analyses/placement.py)
+    t_end, t0 : float [s]
+    dt_output : float [s], optional — output spacing (default (t_end − t0)/500); or
+        ``output_times`` (strictly increasing [s]), or ``saveat=SaveAt(dt=..., times=...)``.
+        Outputs do not limit the steps: they come from the steps' dense output.
+    integrator : :class:`GeneralizedAlpha` (default, ρ∞ = 0.8) or :class:`HHT`, carrying its
+        options: tolerances, step limits, fixed step, Newton settings
+        (:class:`proleg.solvers.galpha.AbstractIntegrator`), e.g.
+        ``GeneralizedAlpha(rtol=1e-8, atol=1e-9, dt_max=1e-3)``
     coordinates : "auto" (default), "absolute" or "planar" — the coordinates the integrator
         runs on (assembly/coordinates.py). "auto" runs a planar mechanism (one whose joints confine
         every part to a plane: ``system.topo.planar`` says whether and why) on 3 coordinates per
         part, an exact reduction, several times faster; results are always absolute.
         ``result.coordinates`` says which ran.
+    q0, v0 : initial coordinates and velocities (default: the modelled pose and velocities),
+        made consistent with the constraints
+    run : :class:`RunOptions` (progress, throw, on_chunk, chunk, free_running); ``progress``,
+        ``throw`` and ``on_chunk`` may also be given directly
+    device : None (default: a single run goes to the CPU even where JAX's default device is a
+        GPU, which is ~8× slower for one variant; inside ``jit``/``vmap`` JAX places it), a
+        platform name ("cpu", "gpu", ...), "default", or a ``jax.Device`` (analyses/placement.py)
+
+    The keywords ``rtol, atol, atol_p, dt_init, dt_min, dt_max, fixed_step, max_newton,
+    jacobian_reuse, jacobian_refresh, lu_per_lane`` (now options of the integrator) and
+    ``chunk, free_running`` (now :class:`RunOptions`) still work for one release, with a
+    DeprecationWarning naming the new place.
 
     Works under ``jax.vmap`` and ``jax.jacfwd`` (the Python loop over chunks is static).
     """
-    integrator = integrator or GeneralizedAlpha()
-    if output_times is None:
-        if dt_output is None:
-            dt_output = (t_end - t0) / 500.0
-        n = int(math.floor((t_end - t0) / dt_output + 1e-9))
-        times = t0 + dt_output * np.arange(n + 1)
-        if times[-1] < t_end - 1e-12 * max(1.0, abs(t_end)):
-            times = np.append(times, t_end)
-    else:
-        times = np.asarray(output_times, float)
-        if np.any(np.diff(times) <= 0):
-            raise ValueError("output_times must be strictly increasing.")
+    integrator, run = simulate_options(integrator, run, warn=True, **deprecated)
+    progress = run.progress if progress is None else progress
+    throw = run.throw if throw is None else throw
+    on_chunk = run.on_chunk if on_chunk is None else on_chunk
+    chunk, free_running = run.chunk, run.free_running
+    if saveat is None:
+        saveat = SaveAt(dt=dt_output, times=output_times)
+    if saveat.times is not None:
+        times = saveat.output_times(t0, t_end)
         t0 = float(times[0]) if t0 == 0.0 and times[0] > 0 else t0
     if not t_end > t0:
         raise ValueError(f"t_end ({t_end}) must be greater than t0 ({t0}).")
+    if saveat.times is None:
+        times = saveat.output_times(t0, t_end)
+    ig = integrator
+    fixed_step = ig.fixed_step
     dopts = DriverOptions(
-        step=StepOptions(
-            rtol=rtol, atol=atol, atol_p=atol if atol_p is None else atol_p, max_newton=max_newton,
-            jacobian_reuse=bool(jacobian_reuse and jacobian_refresh), lu_per_lane=bool(lu_per_lane),
-        ),
-        dt_min=dt_min,
+        step=ig.step_options(),
+        dt_min=float(ig.dt_min),
         # a static option: strip round-off so t_end changes do not recompile
-        dt_max=float(dt_max if dt_max is not None else f"{min(t_end - t0, 1e-2):.10g}"),
-        fixed_step=fixed_step,
+        dt_max=float(ig.dt_max if ig.dt_max is not None else f"{min(t_end - t0, 1e-2):.10g}"),
+        fixed_step=None if fixed_step is None else float(fixed_step),
         sample_period=sample_period(system),
         breakpoints=motion_breakpoints(system),
     )
+    dt_init = ig.dt_init
+    integrator = ig.method  # what the compiled step depends on; the options are in dopts
     z0 = initial_z(system)
     q, v, qdd, lam, z0, (pw, g0) = _consistent_state(system, q0, v0, t0, z0)
     q_ic, v_ic = q, v
@@ -276,7 +367,7 @@ def simulate(
                 status, fail_t, worst = Status(int(stat)), float(ft), dyn.absolute_row(int(wr))
                 break
             if on_chunk is not None:
-                partial_result = _build(system, rec_t, rec, stats, status, "running", integrator)
+                partial_result = _build(system, rec_t, rec, stats, status, "running", ig)
                 on_chunk(partial_result)
     finally:
         if bar is not None:
@@ -284,7 +375,7 @@ def simulate(
     msg = "success"
     if status != Status.SUCCESS:
         msg = _failure_message(system, status, fail_t, worst)
-    result = _build(system, rec_t, rec, stats, status, msg, integrator)
+    result = _build(system, rec_t, rec, stats, status, msg, ig)
     result.coordinates = dyn.kind
     if traced:  # status, failure time and counters as arrays (a Result's own fields need concrete values)
         result.traced_status = (tr_status, tr_ft, tr_stats)

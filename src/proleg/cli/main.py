@@ -129,7 +129,7 @@ def simulate(
         kw["atol"] = opts["atol"]
     system = pl.assemble(mdl)
     try:
-        res = pl.simulate(system, t_end=t_end, dt_output=dt, progress=True, **kw)
+        res = pl.simulate(system, t_end=t_end, dt_output=dt, progress=True, integrator=pl.GeneralizedAlpha(**kw))
     except SolverError as exc:
         if exc.result is not None and len(exc.result.t) > 1:
             exc.result.to_parquet(out)

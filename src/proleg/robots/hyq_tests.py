@@ -31,6 +31,7 @@ import pandas as pd
 from ..analyses.equilibrium import solve_equilibrium
 from ..analyses.result import Result
 from ..analyses.simulate import simulate
+from ..solvers.galpha import GeneralizedAlpha
 from ..assembly.constraints import joint_angle
 from ..assembly.system import assemble, constraints, generalized_forces, kinematics
 from ..errors import ModelError
@@ -413,7 +414,7 @@ def drop_test(
     system = assemble(model) if system is None else system
     # dt_max given explicitly: the same solver options for any t_end, so runs of one System of
     # different lengths share the compiled integrator
-    res = simulate(system, t_end=t_end, dt_output=dt_output, dt_max=min(dt_output, 1e-2), progress=progress, rtol=rtol, atol=atol)
+    res = simulate(system, t_end=t_end, dt_output=dt_output, integrator=GeneralizedAlpha(dt_max=min(dt_output, 1e-2), rtol=rtol, atol=atol), progress=progress)
     df = channels(res, light=light)
     tables = {"channels": df} if light else {"channels": df, "summary": pd.DataFrame([drop_summary(df)])}
     return BenchTest(
