@@ -110,7 +110,7 @@ from .model.model import Model as Model
 from .model.parts import Marker as Marker
 from .model.parts import Part as Part
 from .assembly.system import System as System
-from .assembly.system import assemble as assemble
+from .assembly.assemble import assemble as assemble
 from .solvers.galpha import HHT as HHT
 from .solvers.galpha import AbstractIntegrator as AbstractIntegrator
 from .solvers.galpha import GeneralizedAlpha as GeneralizedAlpha

@@ -7,81 +7,19 @@ import dataclasses
 import math
 import sys
 from dataclasses import dataclass
-from functools import partial
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from ..assembly.coordinates import coordinate_set
-from ..assembly.system import System, constraints, generalized_forces, power_terms
-from ..errors import ConvergenceError, ModelError, SolverError, Status
-from ..solvers.driver import DriverOptions, advance, knot, sample_controllers
-from ..solvers.galpha import GeneralizedAlpha, StepOptions, StepState
-from ..solvers.initial import _normalize_p, kkt_accelerations, mass_matrix
-from .placement import _any_traced, is_traced, placed
+from ..assembly.system import System
+from ..errors import ModelError, SolverError, Status
+from ..solvers.driver import DriverOptions, advance, knot
+from ..solvers.galpha import GeneralizedAlpha, StepState
+from ..solvers.initial import _consistent_state, consistent_state, initial_z  # noqa: F401 (re-exported)
+from .placement import _any_traced, placed
 from .result import Result
-
-
-def _ic_positions(system: System, q_user, t0, n_iter: int):
-    nb = system.topo.nbody
-    q_user = _normalize_p(q_user, nb)
-
-    def gn(q, _):
-        phi = constraints(system, q, t0)
-        Pq = jax.jacfwd(lambda qq: constraints(system, qq, t0))(q)
-        nq, nc = q.shape[0], phi.shape[0]
-        S = jnp.block([[jnp.eye(nq), Pq.T], [Pq, jnp.zeros((nc, nc))]])
-        dx = jnp.linalg.solve(S, jnp.concatenate([q_user - q, -phi]))
-        return _normalize_p(q + dx[:nq], nb), None
-
-    q, _ = jax.lax.scan(gn, q_user, None, length=n_iter)
-    return q, jnp.max(jnp.abs(constraints(system, q, t0)))
-
-
-@partial(jax.jit, static_argnums=(4,))
-def _ic(system: System, q_user, v_user, t0, n_iter: int, z0):
-    """One compiled initial-conditions analysis: positions (Gauss-Newton), velocities (M-weighted
-    projection), a controller sample at t0, accelerations and multipliers (KKT), powers."""
-    q, res = _ic_positions(system, q_user, t0, n_iter)
-    M = mass_matrix(system, q)
-    Pq = jax.jacfwd(lambda qq: constraints(system, qq, t0))(q)
-    Pt = jax.jacfwd(lambda tt: constraints(system, q, tt))(t0)
-    nq, nc = q.shape[0], Pq.shape[0]
-    S = jnp.block([[M, Pq.T], [Pq, jnp.zeros((nc, nc))]])
-    v = jnp.linalg.solve(S, jnp.concatenate([M @ v_user, -Pt]))[:nq]
-    z = sample_controllers(system, t0, q, v, z0, True)
-    qdd, lam = kkt_accelerations(system, q, v, t0, z)
-    # HHT carries g = (Φ_qᵀλ − Q) of the previous step; start it consistently (not 0).
-    _, vjp = jax.vjp(lambda qq: constraints(system, qq, t0), q)
-    g = vjp(lam)[0] - generalized_forces(system, q, v, t0, z)
-    return q, v, qdd, lam, z, (power_terms(system, q, v, t0, z), g), res
-
-
-def consistent_state(system: System, q_user=None, v_user=None, t0=0.0, z0=None, tol=1e-10):
-    """Initial (q, v, q̈, λ, z) satisfying the constraints at position, velocity and acceleration level."""
-    return _consistent_state(system, q_user, v_user, t0, z0, tol)[:5]
-
-
-def _consistent_state(system, q_user, v_user, t0, z0, tol=1e-10):
-    q_user = system.params["q_init"] if q_user is None else jnp.asarray(q_user, jnp.float64)
-    v_user = system.params["v_init"] if v_user is None else jnp.asarray(v_user, jnp.float64)
-    t0 = jnp.asarray(t0, jnp.float64)
-    z0 = initial_z(system) if z0 is None else z0
-    q, v, qdd, lam, z, pw, res = _ic(system, q_user, v_user, t0, 8, z0)
-    if not is_traced(res):
-        tries = 0
-        while float(res) > tol and tries < 6:
-            q, v, qdd, lam, z, pw, res = _ic(system, q, v_user, t0, 8, z0)
-            tries += 1
-        if not float(res) <= tol:
-            row = int(jnp.argmax(jnp.abs(jax.jit(constraints)(system, q, t0))))
-            elem, lab = system.topo.ct.labels[row]
-            raise ConvergenceError(
-                f"Initial conditions: model '{system.topo.name}' cannot be assembled (constraint residual "
-                f"{float(res):.3g} in '{elem}', equation {lab}). Check joint locations and part poses."
-            )
-    return q, v, qdd, lam, z, pw
 
 
 def _ic_report(system, q, v):
@@ -99,11 +37,6 @@ def _ic_report(system, q, v):
         if max(dr, dp, dv) > 1e-9:
             out.append({"part": name, "moved [m]": dr, "rotated [rad]": dp, "velocity change [m/s]": dv})
     return out
-
-
-def initial_z(system: System):
-    parts = [jnp.asarray(g.z0(system.params)) for g in system.topo.extensions if hasattr(g, "z0")]
-    return jnp.concatenate(parts) if parts else jnp.zeros(0)
 
 
 def motion_breakpoints(system: System) -> tuple:
@@ -161,6 +94,11 @@ class RunOptions:
     free_running : under ``jax.vmap``, let each variant step through all its output times
         without waiting for the others at each one (solvers/driver.py ``advance``; what
         :func:`proleg.sweep` uses); the same results, ~2× fewer batch iterations
+    prepare_outputs : compile the post-processing of the outputs (accelerations, multipliers,
+        joint reactions, element outputs, energies: analyses/result.py ``post_batch``) in a
+        second thread while the run compiles and runs, so that the first ``result.to_frame()``
+        (or ``.joint()``, ``.element()``, ``.energy``) compiles nothing. Default: on for a
+        single (not traced) run. Off saves that compile where only states are read.
     """
 
     progress: bool | None = None
@@ -168,6 +106,7 @@ class RunOptions:
     on_chunk: object = None
     chunk: int = 256
     free_running: bool = False
+    prepare_outputs: bool = True
 
 
 # Old keyword spellings of simulate (one release, with a DeprecationWarning): where they live now.
@@ -301,6 +240,9 @@ def simulate(
     dt_init = ig.dt_init
     integrator = ig.method  # what the compiled step depends on; the options are in dopts
     z0 = initial_z(system)
+    post = None
+    if run.prepare_outputs and not _any_traced((system.params, q0, v0)):
+        post = _compile_post(system, len(times), z0)
     q, v, qdd, lam, z0, (pw, g0) = _consistent_state(system, q0, v0, t0, z0)
     q_ic, v_ic = q, v
     traced = _any_traced((system.params, q))
@@ -312,8 +254,8 @@ def simulate(
     n_newton = dyn.nq + dyn.nc
     st = StepState(
         t=jnp.asarray(t0, jnp.float64), q=q, v=v, a=qdd, qdd=qdd, lam=lam,
-        h_prev=jnp.asarray(1.0), w=jnp.zeros(2), pw=pw, z=z0, g=g0,
-        Jfac=(jnp.zeros((n_newton, n_newton)), jnp.arange(n_newton, dtype=jnp.int32)), jac_h=jnp.asarray(0.0), jac_ok=jnp.asarray(False), jac_hold=jnp.asarray(0), jac_pen=jnp.asarray(0),
+        h_prev=jnp.asarray(1.0, jnp.float64), w=jnp.zeros(2), pw=pw, z=z0, g=g0,
+        Jfac=(jnp.zeros((n_newton, n_newton)), jnp.arange(n_newton, dtype=jnp.int32)), jac_h=jnp.asarray(0.0, jnp.float64), jac_ok=jnp.asarray(False), jac_hold=jnp.asarray(0, jnp.int32), jac_pen=jnp.asarray(0, jnp.int32),
     )
     h = jnp.asarray(dt_init if dt_init is not None else (fixed_step or min(1e-4, dopts.dt_max)), jnp.float64)
     st = st._replace(h_prev=h)
@@ -377,6 +319,8 @@ def simulate(
         msg = _failure_message(system, status, fail_t, worst)
     result = _build(system, rec_t, rec, stats, status, msg, ig)
     result.coordinates = dyn.kind
+    if post is not None and len(result.t) == len(times):
+        result._compiled_post = post
     if traced:  # status, failure time and counters as arrays (a Result's own fields need concrete values)
         result.traced_status = (tr_status, tr_ft, tr_stats)
     if not traced:
@@ -394,6 +338,33 @@ def simulate(
     if status != Status.SUCCESS and throw:
         raise SolverError(msg, result)
     return result
+
+
+_POST_POOL = None
+
+
+def _compile_post(system, n: int, z0):
+    """Start compiling the outputs' post-processing for ``n`` outputs in a second thread (on the
+    device this call runs on); returns a Future of the compiled executable."""
+    global _POST_POOL
+    from concurrent.futures import ThreadPoolExecutor
+
+    from .result import post_batch
+
+    if _POST_POOL is None:
+        _POST_POOL = ThreadPoolExecutor(1, thread_name_prefix="proleg-outputs")
+    dev = jax.config.jax_default_device
+    f64 = jnp.float64
+    shapes = (jax.ShapeDtypeStruct((n, system.nq), f64), jax.ShapeDtypeStruct((n, system.nq), f64),
+              jax.ShapeDtypeStruct((n,), f64), jax.ShapeDtypeStruct((n, z0.shape[0]), z0.dtype))
+
+    def compile_():
+        if dev is None:
+            return post_batch.lower(system, *shapes).compile()
+        with jax.default_device(dev):
+            return post_batch.lower(system, *shapes).compile()
+
+    return _POST_POOL.submit(compile_)
 
 
 def _warn_unstable_servos(system, q, v, t0, z0):

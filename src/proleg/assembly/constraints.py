@@ -175,3 +175,21 @@ def constraint_values(ct: ConstraintTopology, screw_lead, mr, mR, p, t, coupler=
         parts.append(jnp.where(ct.cp_rot, _wrap(d), d))
     parts.append(jnp.sum(p * p, -1) - 1.0)
     return jnp.concatenate(parts)
+
+
+def _frames(oh, mk):
+    return (oh @ mk.R.reshape(-1, 9)).reshape(-1, 3, 3)
+
+
+def joint_coordinate(oh_i, oh_j, rot, mk):
+    """Joint coordinate (angle or translation of I relative to J) and its rate; vectorised."""
+    RI, RJ = _frames(oh_i, mk), _frames(oh_j, mk)
+    rI, rJ = oh_i @ mk.r, oh_j @ mk.r
+    wI, wJ = oh_i @ mk.w, oh_j @ mk.w
+    zJ = RJ[:, :, 2]
+    th = joint_angle(RI, RJ)
+    th_d = jnp.sum(zJ * (wI - wJ), -1)
+    x = joint_translation(rI, rJ, RJ)
+    delta = rI - rJ
+    x_d = jnp.sum(zJ * (oh_i @ mk.v - oh_j @ mk.v), -1) + jnp.sum(jnp.cross(wJ, zJ) * delta, -1)
+    return jnp.where(rot, th, x), jnp.where(rot, th_d, x_d), zJ, delta

@@ -1,6 +1,7 @@
-"""Model → System: a frozen pytree of parameters (JAX arrays) plus static topology.
+"""Model → System: a frozen pytree of parameters (JAX arrays) plus static topology, and the pure
+physics functions of a System.
 
-``assemble(model)`` is the only door into JAX. Everything inconsistent is raised here, in plain
+``assemble(model)`` (assembly/assemble.py) is the only door into JAX. Everything inconsistent is raised here, in plain
 Python. The resulting :class:`System` is a pytree whose leaves are the numeric parameters
 (masses, inertias, marker geometry, stiffnesses, ...): replace them with
 ``system.with_params(...)`` without recompiling, ``jax.vmap`` over them, differentiate them.
@@ -8,8 +9,6 @@ Python. The resulting :class:`System` is a pytree whose leaves are the numeric p
 
 from __future__ import annotations
 
-import dataclasses
-import warnings
 from dataclasses import dataclass, field
 
 import jax
@@ -17,14 +16,12 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ModelError
-from ..model.forces import Bushing, Force, RotationalBacklash, RotationalSpringDamper, SpringDamper, Torque
 from ..model.model import Model
 from ..spatial.rotation import G_of_p, L_of_p, mtv, mv, p_from_matrix
-from .constraints import ROW_KINDS, ConstraintTopology, build_constraint_topology, constraint_values
-from .elements import BushingGroup, PartLoadGroup, RotationalBacklashGroup, RotationalSpringDamperGroup, SpringDamperGroup
-from .kinematics import body_kin, marker_kin
+from .constraints import ConstraintTopology, constraint_values
+from .kinematics import StateView as StateView
+from .kinematics import kinematics
 from .select import Select
-from .sparsity import jacobian_coloring
 
 
 @dataclass(eq=False)
@@ -146,103 +143,6 @@ class System:
 # ---------------------------------------------------------------------------------------------
 # Pure physics functions
 # ---------------------------------------------------------------------------------------------
-class StateView:
-    """What user force/torque/motion functions see: ``state.position('upper')`` etc. (traceable)."""
-
-    def __init__(self, topo: Topology, bk, mk, t, z=None, params=None):
-        self._topo, self._bk, self._mk, self.t, self.z, self._P = topo, bk, mk, t, z, params
-
-    def _b(self, part):
-        name = getattr(part, "name", part)
-        if name == "ground":
-            return self._topo.nbody
-        try:
-            return self._topo.body_names.index(name)
-        except ValueError:
-            raise ModelError(f"State access: no part named '{name}'.") from None
-
-    def _m(self, marker):
-        name = getattr(marker, "name", marker)
-        try:
-            return self._topo.marker_names.index(name)
-        except ValueError:
-            raise ModelError(f"State access: no marker named '{name}'.") from None
-
-    def position(self, part):
-        return self._bk.r[self._b(part)]
-
-    def velocity(self, part):
-        return self._bk.rd[self._b(part)]
-
-    def orientation(self, part):
-        return self._bk.A[self._b(part)]
-
-    def angular_velocity(self, part):
-        return self._bk.w[self._b(part)]
-
-    def marker_position(self, marker):
-        return self._mk.r[self._m(marker)]
-
-    def marker_velocity(self, marker):
-        return self._mk.v[self._m(marker)]
-
-    def marker_orientation(self, marker):
-        return self._mk.R[self._m(marker)]
-
-    def _joint_markers(self, joint):
-        name = getattr(joint, "name", joint)
-        for j in self._topo.joints:
-            if j.name == name:
-                return self._m(j.marker_i.name), self._m(j.marker_j.name)
-        raise ModelError(f"State access: no joint named '{name}'.")
-
-    def joint_angle(self, joint):
-        """Rotation [rad] of the joint's marker I relative to J about z_J."""
-        from .constraints import joint_angle
-
-        i, j = self._joint_markers(joint)
-        return joint_angle(self._mk.R[i], self._mk.R[j])
-
-    def joint_rate(self, joint):
-        """d/dt of :meth:`joint_angle` [rad/s]."""
-        i, j = self._joint_markers(joint)
-        return jnp.dot(self._mk.R[j][:, 2], self._mk.w[i] - self._mk.w[j])
-
-    def joint_translation(self, joint):
-        from .constraints import joint_translation
-
-        i, j = self._joint_markers(joint)
-        return joint_translation(self._mk.r[i], self._mk.r[j], self._mk.R[j])
-
-    def variable(self, name):
-        """Value of the design variable ``name`` (``model.add_variable``), a traced parameter."""
-        key = f"variable_{name}"
-        if self._P is None or key not in self._P:
-            have = sorted(k[9:] for k in (self._P or {}) if k.startswith("variable_"))
-            raise ModelError(f"State access: no design variable named '{name}'. Known: {have}. Add it with model.add_variable.")
-        return self._P[key]
-
-    def contact_force(self, contact):
-        """Normal force [N] of a contact (for touchdown / lift-off guards)."""
-        name = getattr(contact, "name", contact)
-        for g in self._topo.extensions:
-            if g.kind == "contact" and name in g.names:
-                out = g.outputs(self._P, self._mk, self.t, self)
-                return out["normal_force"][0][g.names.index(name)]
-        raise ModelError(f"State access: no contact named '{name}'.")
-
-
-def kinematics(system: System, q, v=None):
-    topo, P = system.topo, system.params
-    bk = body_kin(topo.nbody, q, v)
-    flex = None
-    if topo.n_eta:
-        n0 = 7 * topo.nbody
-        flex = (q[n0:], None if v is None else v[n0:], P["marker_phi"], P["marker_psi"])
-    mk = marker_kin(topo.marker_oh, P["marker_s"], P["marker_C"], bk, flex)
-    return bk, mk
-
-
 def constraints(system: System, q, t):
     """Φ(q, t) of the kept rows (joints, motions, then Euler-parameter normalization)."""
     topo, P = system.topo, system.params
@@ -360,220 +260,6 @@ def initial_coordinates(model: Model):
         v.append(np.concatenate([part.velocity, pd]))
     n_eta = sum(p.n_eta for p in model.parts if getattr(p, "is_flexible", False))
     return np.concatenate(q + [np.zeros(n_eta)]), np.concatenate(v + [np.zeros(n_eta)])
-
-
-# ---------------------------------------------------------------------------------------------
-# assemble
-# ---------------------------------------------------------------------------------------------
-GROUP_BUILDERS = [
-    (SpringDamper, SpringDamperGroup),
-    (RotationalSpringDamper, RotationalSpringDamperGroup),
-    (Bushing, BushingGroup),
-    (RotationalBacklash, RotationalBacklashGroup),
-]
-def _extension_hook(model, topo, marker_index, params):
-    from .extensions import build_extensions
-
-    return build_extensions(model, topo, marker_index, params)
-
-
-EXTENSION_HOOKS: list = [_extension_hook]  # callables(model, topo, marker_index, params) → list of groups
-
-
-def _joint_rows(model: Model, marker_index, owners):
-    rows = []
-    screw_leads = []
-    couplers = []
-    for oi, j in enumerate(owners):
-        mi, mj = marker_index[id(j.marker_i)], marker_index[id(j.marker_j)]
-        for eq in j.equations:
-            kind = eq[0]
-            if kind == "sph":
-                rows.append(dict(kind="sph", mi=mi, mj=mj, args=(eq[1],), owner=oi, label=f"d{'xyz'[eq[1]]}"))
-            elif kind == "dot1":
-                rows.append(
-                    dict(kind="dot1", mi=mi, mj=mj, args=(eq[1], eq[2]), owner=oi, label=f"{'xyz'[eq[1]]}_I.{'xyz'[eq[2]]}_J")
-                )
-            elif kind == "dot2":
-                rows.append(dict(kind="dot2", mi=mi, mj=mj, args=(eq[1],), owner=oi, label=f"{'xyz'[eq[1]]}_I.d"))
-            elif kind == "screw":
-                rows.append(dict(kind="screw", mi=mi, mj=mj, args=(len(screw_leads),), owner=oi, label="screw"))
-                screw_leads.append(j.pitch)
-            elif kind == "drv":
-                rows.append(dict(kind="drv", mi=mi, mj=mj, args=(eq[1], eq[2]), owner=oi, label=eq[3]))
-            elif kind == "cpl":
-                j2 = j.joint_2
-                mi2, mj2 = marker_index[id(j2.marker_i)], marker_index[id(j2.marker_j)]
-                rows.append(dict(kind="cpl", mi=mi, mj=mj, args=(mi2, mj2, j.dof == "rotation", len(couplers)), owner=oi, label="q1 - r q2"))
-                couplers.append((j.ratio, j.offset))
-    return rows, np.array(screw_leads, float), np.array(couplers, float).reshape(-1, 2)
-
-
-def find_redundant_rows(Phi_q: np.ndarray, nbody: int, scale: np.ndarray | None = None, tol: float = 1e-9):
-    """Indices of independent joint rows (model order) and of dropped ones (formulation note §6).
-
-    ``Phi_q`` has the joint rows first and the ``nbody`` normalization rows last; the latter
-    are always kept. Rank-revealing QR with column pivoting on the joint rows projected onto
-    the complement of the normalization rows.
-    """
-    import scipy.linalg
-
-    nj = Phi_q.shape[0] - nbody
-    if nj == 0:
-        return np.arange(0), np.arange(0)
-    Pj = Phi_q[:nj].copy()
-    if scale is not None:
-        Pj = Pj * scale[None, :]
-    N = Phi_q[nj:]
-    if nbody:
-        Qn, _ = np.linalg.qr(N.T)
-        Pj = Pj - (Pj @ Qn) @ Qn.T
-    _, R, piv = scipy.linalg.qr(Pj.T, pivoting=True, mode="economic")
-    diag = np.abs(np.diag(R))
-    if diag.size == 0 or diag[0] == 0:
-        return np.arange(0), np.arange(nj)
-    rank = int(np.sum(diag > tol * diag[0]))
-    keep = np.sort(piv[:rank])
-    drop = np.sort(piv[rank:])
-    return keep, drop
-
-
-def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
-    """Build the System of ``model``: checks, parameter arrays, constraint rows, redundancy removal.
-
-    Raises
-    ------
-    ModelError
-        For anything inconsistent (no parts, unknown elements, a part connected to nothing, ...).
-    """
-    if not isinstance(model, Model):
-        raise ModelError(f"assemble expects a proleg.Model, got {type(model).__name__}.")
-    if not model.parts:
-        raise ModelError(f"Model '{model.name}' has no parts. Add parts with model.add_part.")
-    body_index = {id(p): k for k, p in enumerate(model.parts)}
-    nb = len(model.parts)
-    body_index[id(model.ground)] = nb
-    markers = list(model.markers)
-    marker_index = {id(m): k for k, m in enumerate(markers)}
-    nm = len(markers)
-    marker_body = np.array([body_index[id(m.part)] for m in markers], int)
-    marker_oh = Select(marker_body, nb + 1)
-
-    flex_parts = [p for p in model.parts if getattr(p, "is_flexible", False)]
-    params = {
-        "gravity": np.asarray(model.gravity, float),
-        # Flexible bodies get their inertia from their own Lagrangian (assembly/flexible.py).
-        "body_mass": np.array([0.0 if getattr(p, "is_flexible", False) else p.mass for p in model.parts]),
-        "body_inertia": np.array([np.zeros((3, 3)) if getattr(p, "is_flexible", False) else p.inertia for p in model.parts]),
-        "marker_s": np.array([m.local_position for m in markers]).reshape(nm, 3),
-        "marker_C": np.array([m.local_orientation for m in markers]).reshape(nm, 3, 3),
-    }
-    q0, v0 = initial_coordinates(model)
-    params["q_init"], params["v_init"] = q0, v0
-    for vname, (value, _unit, _desc) in getattr(model, "variables", {}).items():
-        params[f"variable_{vname}"] = np.asarray(value, float)
-
-    groups = []
-    for cls, gcls in GROUP_BUILDERS:
-        elems = [f for f in model.forces if type(f) is cls]
-        groups.append(gcls(elems, marker_index, nm))
-    for kind, cls in (("force", Force), ("torque", Torque)):
-        groups.append(PartLoadGroup([f for f in model.forces if isinstance(f, cls)], marker_index, nm, kind))
-    for g in groups:
-        if len(g):
-            params.update(g.params())
-
-    topo = Topology(
-        name=model.name,
-        body_names=[p.name for p in model.parts],
-        marker_names=[m.name for m in markers],
-        marker_body=marker_body,
-        marker_oh=marker_oh,
-        joints=list(model.joints),
-        joint_marker_i=np.array([marker_index[id(j.marker_i)] for j in model.joints], int),
-        joint_marker_j=np.array([marker_index[id(j.marker_j)] for j in model.joints], int),
-        groups=groups,
-        model=model,
-    )
-    if flex_parts:
-        from .flexible import FlexGroup
-
-        topo.flex = FlexGroup(flex_parts, body_index, 7 * nb)
-        topo.n_eta = topo.flex.n_eta
-        params.update(topo.flex.params())
-        params["marker_phi"], params["marker_psi"] = topo.flex.marker_fields(markers, nm, topo.n_eta)
-    extensions = []
-    for hook in EXTENSION_HOOKS:
-        extensions += hook(model, topo, marker_index, params)
-    topo.extensions = extensions
-    owners = list(model.joints) + list(getattr(model, "_constraint_owners_extra", lambda: [])())
-    rows, leads, cpl = _joint_rows(model, marker_index, owners)
-    params["screw_lead"] = leads
-    if len(cpl):
-        params["coupler_ratio"], params["coupler_offset"] = cpl[:, 0], cpl[:, 1]
-
-    # Redundancy: full row set at the modelled pose, then keep independent rows.
-    ct_full = build_constraint_topology(rows, nm, nb, owners)
-    topo.ct = ct_full
-    sys_full = System({k: jnp.asarray(v, dtype=jnp.float64) for k, v in params.items()}, topo)
-    Phi_q = np.asarray(_jit_constraint_jacobian(sys_full, jnp.asarray(q0), 0.0))
-    if not np.all(np.isfinite(Phi_q)):
-        raise ModelError(f"Model '{model.name}': the constraint Jacobian is not finite at the modelled pose.")
-    ordered = [r for k in ROW_KINDS for r in rows if r["kind"] == k]
-    keep, drop = find_redundant_rows(Phi_q, nb, tol=redundancy_tol)
-    dropped = [(owners[ordered[i]["owner"]].name, ordered[i]["label"]) for i in drop]
-    if dropped:
-        warnings.warn(
-            f"Model '{model.name}': {len(dropped)} redundant constraint equation(s) removed: "
-            + ", ".join(f"{j} ({lab})" for j, lab in dropped)
-            + ". Their reactions are statically indeterminate (reported as 0); replace joints by "
-            "lower-equation joints or bushings if the split matters.",
-            stacklevel=2,
-        )
-        kept_rows = [ordered[i] for i in keep]
-        # A new Topology object, not a mutated one: jit caches key on the topology's identity,
-        # and executables compiled above for the full row set must not be reused for it.
-        topo = dataclasses.replace(topo, ct=build_constraint_topology(kept_rows, nm, nb, owners))
-    topo.dropped = dropped
-    topo.coloring = jacobian_coloring(topo)
-    system = System({k: jnp.asarray(v, dtype=jnp.float64) for k, v in params.items()}, topo)
-    if topo.flex is None and any(getattr(j, "kind", "") in ("revolute", "planar") for j in topo.joints):
-        from .coordinates import planar_basis
-
-        topo.planar = planar_basis(system, q0)
-    else:
-        topo.planar = (None, "no revolute joints" if topo.flex is None else "flexible bodies")
-    ctrl = next((g for g in extensions if g.kind == "controller"), None)
-    if ctrl is not None:
-        _check_controllers(system, ctrl)
-    if ctrl is not None and "controller_setpoint0" in params:
-        from .extensions import joint_coordinate
-
-        th = jax.jit(lambda s, q, v: joint_coordinate(ctrl.pid_oh_i, ctrl.pid_oh_j, ctrl.pid_rot, kinematics(s, q, v)[1])[0])(
-            system, jnp.asarray(q0), jnp.asarray(v0)
-        )
-        system = system.with_params(controller_setpoint0=th)
-    return system
-
-
-def _check_controllers(system: System, ctrl):
-    """Trace every general controller's update once (``jax.eval_shape``, no compile): an unknown
-    joint, contact or variable in a law or guard is a ModelError here, naming the controller,
-    not a tracer error later."""
-    z0 = jnp.concatenate([jnp.asarray(g.z0(system.params)) for g in system.topo.extensions if hasattr(g, "z0")])
-    q0, v0 = system.params["q_init"], system.params["v_init"]
-    for e, (off, _size) in zip(ctrl.elements, ctrl.slices):
-        if e.kind == "pid":
-            continue
-
-        def trace(s, q, v, z, e=e, off=off):
-            bk, mk = kinematics(s, q, v)
-            return e.update(0.0, StateView(s.topo, bk, mk, 0.0, z, s.params), z[off : off + e.z0.size])
-
-        try:
-            jax.eval_shape(trace, system, q0, v0, z0)
-        except ModelError as exc:
-            raise ModelError(f"{type(e).__name__} '{e.name}': {exc}") from None
 
 
 def dof_report(system: System) -> dict:

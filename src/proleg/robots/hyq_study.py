@@ -42,7 +42,7 @@ def peak_knee_force(r):
 
 def bushing_study(*, t_end: float = SWEEP_T_END, gain: str = "high", drop_height: float = 0.05, k_range=(1e6, 1e10)) -> Study:
     """The study: 8-bushing HyQ leg drop, ``pin_stiffness`` in a log range, peak cylinder forces."""
-    from ..assembly.system import assemble
+    from ..assembly.assemble import assemble
     from .hyq_leg import hyq_leg
 
     system = assemble(hyq_leg(joints="bushings8", gain=gain, drop_height=drop_height, actuators="drop"))

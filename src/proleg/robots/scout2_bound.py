@@ -34,7 +34,8 @@ import pandas as pd
 
 from ..analyses.result import Result
 from ..analyses.simulate import simulate
-from ..assembly.system import System, assemble
+from ..assembly.assemble import assemble
+from ..assembly.system import System
 from ..drives.dcmotor import specific_resistance
 from ..errors import ModelError
 from ..solvers.galpha import GeneralizedAlpha

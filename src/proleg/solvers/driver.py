@@ -22,6 +22,7 @@ import jax.numpy as jnp
 
 from ..errors import Status
 from .galpha import StepOptions, StepState, step
+from .initial import kkt_accelerations, sample_controllers
 
 
 @dataclass(frozen=True)
@@ -33,14 +34,6 @@ class DriverOptions:
     max_steps: int = 2_000_000  # per chunk
     sample_period: float | None = None  # controller clock [s]
     breakpoints: tuple = ()  # times [s] where a motion law's derivatives jump (stepped to exactly)
-
-
-def sample_controllers(system, t, q, v, z, first=False):
-    """Controller sample: z ← update(t, q, v, z) for every sampled element."""
-    for g in system.topo.extensions:
-        if hasattr(g, "sample"):
-            z = g.sample(system.params, t, q, v, z, system, first)
-    return z
 
 
 # Compiled once per model (the System's topology is static): the first sample of a run, or the
@@ -60,8 +53,6 @@ def _restart(dyn, st: StepState, z):
     accelerations jump (the a_n history would otherwise ring, decaying as ρ∞ⁿ). The
     accelerations are those just after t (the right limit of a law whose second derivative
     jumps at t: evaluated at t + 1e-12·max(1, |t|))."""
-    from .initial import kkt_accelerations
-
     t_right = st.t + 1e-12 * jnp.maximum(1.0, jnp.abs(st.t))
     qdd, lam = kkt_accelerations(dyn, st.q, st.v, t_right, z)
     _, vjp = jax.vjp(lambda qq: dyn.constraints(qq, st.t), st.q)
