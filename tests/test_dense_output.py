@@ -72,7 +72,8 @@ def test_interpolation_adds_less_than_the_steps_own_error(pendulum):
     assert e_q[at_steps].max() > 1e-8  # the step error is measurable (2nd order at 1 ms)
     assert e_q[~at_steps].max() < 1.2 * e_q[at_steps].max()
     assert e_v[~at_steps].max() < 1.2 * e_v[at_steps].max()
-    np.testing.assert_allclose(np.linalg.norm(np.asarray(coarse.q)[:, 3:7], axis=1), 1.0, rtol=0, atol=1e-14)
+    # unit quaternions to the constraint tolerance (the projection solves p·p = 1 to first order)
+    np.testing.assert_allclose(np.linalg.norm(np.asarray(coarse.q)[:, 3:7], axis=1), 1.0, rtol=0, atol=1e-12)
 
 
 def test_dense_output_under_vmap_and_jacfwd(pendulum):

@@ -27,11 +27,9 @@ def test_reuse_matches_fresh_matrices_with_fewer_builds():
     assert reuse.stats["jacobians"] < 0.6 * (reuse.stats["steps"] + reuse.stats["rejected"])
     # both are error-controlled at rtol 1e-6: positions agree to a few tolerances (0.15 m rods)
     assert np.max(np.abs(np.asarray(reuse.q[:, :3]) - np.asarray(fresh.q[:, :3]))) < 1e-5
-    # Outputs are read from the steps' dense output (solvers/driver.py), which meets the
-    # constraints to the integration tolerance (measured 5e-8 m with atol 1e-7), not to the
-    # Newton tolerance of the steps themselves; reusing the matrix adds nothing to that.
-    cr_reuse, cr_fresh = np.max(reuse.constraint_residual()), np.max(fresh.constraint_residual())
-    assert cr_reuse < 1e-6 and cr_reuse < 3 * cr_fresh + 1e-9
+    # outputs between steps are projected onto the constraints with the step's (possibly
+    # reused) Newton matrix (solvers/driver.py dense_output)
+    assert np.max(reuse.constraint_residual()) < 1e-9
 
 
 def test_any_lane_is_identity_alone_and_or_over_a_batch():
