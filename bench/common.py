@@ -221,7 +221,9 @@ def bench_simulate(system, t_end: float, dt_output: float = 1e-2, profile_chunks
     least disturbed by other load, as ``timeit`` reports) and ``median us/step`` the median.
     """
     import proleg as pl
+    from proleg.analyses.simulate import simulate_kwargs
 
+    kw = simulate_kwargs(kw)  # flat options (rtol=, dt_max=, ...) → integrator=/run=
     kw.setdefault("progress", False)
     with CompileEvents() as ev:
         res1, t_first = timed(pl.simulate, system, t_end=t_end, dt_output=dt_output, **kw)

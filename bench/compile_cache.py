@@ -19,6 +19,13 @@ Modes (``--modes``, default ``fresh none``); each runs its two processes back to
 
 Targets: the first compile of a 7-part model under 15 s; a second run in a new process
 without recompiling.
+
+``--table`` (issue 20): time from ``import proleg`` to the DataFrame, as a new user meets it:
+the README's ten-line double pendulum (2 s, outputs every 1 ms) and the 7-link chain, each in a
+fresh process with an empty cache (cold) and again with that cache (warm); the time and the
+compile events of each stage (import, assemble, simulate, to_frame: trace, lower, XLA seconds,
+executables built) and the compilations ``to_frame`` triggered (target 0). Targets: README
+example ≤ 3 s cold, ≤ 1 s warm; 7-link chain ≤ 6 s cold.
 """
 
 from __future__ import annotations
@@ -56,6 +63,98 @@ out = dict(
 )
 print("RESULT " + json.dumps(out))
 """
+
+CHILD_TABLE = r"""
+import json, sys, time
+t0 = time.perf_counter()
+import jax
+import proleg as pl
+t_import = time.perf_counter() - t0
+sys.path.insert(0, {bench!r})
+from common import CompileEvents, build_chain
+stages = {{}}
+
+def stage(name, fn):
+    with CompileEvents() as ev:
+        t = time.perf_counter()
+        out = fn()
+        stages[name] = dict(wall=time.perf_counter() - t, **{{k: v for k, v in ev.summary().items() if k != "xla by function [s]"}})
+    return out
+
+def readme():
+    model = pl.Model("double_pendulum", gravity=(0.0, 0.0, -9.81))
+    upper = model.add_part("upper", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(0.5, 0, 0))
+    lower = model.add_part("lower", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(1.5, 0, 0))
+    model.add_joint(pl.Revolute("shoulder", model.ground, upper, at=(0, 0, 0), axis=(0, 1, 0)))
+    model.add_joint(pl.Revolute("elbow", upper, lower, at=(1, 0, 0), axis=(0, 1, 0)))
+    tip, anchor = model.add_marker(lower, "tip", (2, 0, 0)), model.add_marker(model.ground, "anchor", (2, 0, -1))
+    model.add_force(pl.SpringDamper("spring", tip, anchor, stiffness=50.0, damping=0.5, free_length=1.0))
+    return model
+
+model = readme() if {model!r} == "readme" else build_chain(7)
+t_end, dt = (2.0, 1e-3) if {model!r} == "readme" else (1.0, 1e-3)
+system = stage("assemble", lambda: pl.assemble(model))
+result = stage("simulate", lambda: pl.simulate(system, t_end=t_end, dt_output=dt))
+df = stage("to_frame", lambda: result.to_frame())
+total = time.perf_counter() - t0
+print("RESULT " + json.dumps(dict(t_import=t_import, total=total, stages=stages, rows=len(df), cols=len(df.columns), steps=result.stats["steps"])))
+"""
+
+TABLE_COLUMNS = [
+    "model", "cache", "import → table [s]", "import [s]", "assemble [s]", "simulate [s]", "to_frame [s]",
+    "trace [s]", "lower [s]", "xla [s]", "executables", "to_frame executables", "cache hits", "steps", "table",
+]
+
+
+def run_table(model: str, env: dict, cache: str) -> dict:
+    code = CHILD_TABLE.format(bench=str(BENCH_DIR), model=model)
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=1800)
+    line = next((ln for ln in p.stdout.splitlines() if ln.startswith("RESULT ")), None)
+    if p.returncode != 0 or line is None:
+        tail = (p.stderr or p.stdout).strip().splitlines()[-5:]
+        return {"model": model, "cache": cache, "status": f"child failed (rc {p.returncode}): " + " | ".join(tail)}
+    r = json.loads(line[len("RESULT "):])
+    st = r["stages"]
+    tot = lambda k: sum(s.get(k, 0) for s in st.values())  # noqa: E731
+    return {
+        "model": model, "cache": cache, "import → table [s]": r["total"], "import [s]": r["t_import"],
+        "assemble [s]": st["assemble"]["wall"], "simulate [s]": st["simulate"]["wall"], "to_frame [s]": st["to_frame"]["wall"],
+        "trace [s]": tot("trace [s]"), "lower [s]": tot("lower [s]"), "xla [s]": tot("xla [s]"),
+        "executables": tot("xla compiles"), "to_frame executables": st["to_frame"]["xla compiles"],
+        "cache hits": tot("cache hits"), "steps": r["steps"], "table": f"{r['rows']} × {r['cols']}",
+    }
+
+
+def main_table(args):
+    if args.out.endswith("compile_cache.md"):
+        args.out = args.out[: -len("compile_cache.md")] + "time_to_table.md"
+    rows = []
+    for model in args.models:
+        tmp = tempfile.TemporaryDirectory(prefix="proleg-jax-cache-")
+        env = dict(os.environ, PROLEG_CACHE_DIR=tmp.name)
+        env.pop("JAX_COMPILATION_CACHE_DIR", None)
+        try:
+            for cache in ("cold", "warm"):
+                log(f"{model}: {cache} ...")
+                row = run_table(model, env, cache)
+                log(f"  {row}")
+                rows.append(row)
+        finally:
+            tmp.cleanup()
+    targets = {("readme", "cold"): 3.0, ("readme", "warm"): 1.0, ("chain7", "cold"): 6.0}
+    notes = [
+        "Each row is a fresh Python process (cold: empty PROLEG_CACHE_DIR; warm: the cache the cold row filled). "
+        "trace/lower/xla = JAX's compile events summed over the stages (xla includes loading from the cache); "
+        "executables = backend compilations or cache loads; to_frame executables = those to_frame triggered (target 0).",
+    ]
+    for r in rows:
+        tgt = targets.get((r["model"], r["cache"]))
+        if tgt is not None and "import → table [s]" in r:
+            notes.append(f"{r['model']} {r['cache']}: {r['import → table [s]']:.1f} s from import to the table, target ≤ {tgt:g} s: "
+                         + ("met." if r["import → table [s]"] <= tgt else "not met."))
+    cols = TABLE_COLUMNS + (["status"] if any("status" in r for r in rows) else [])
+    emit(args, "Time from import to the table (issue 20)", rows, cols, {"models": args.models}, notes)
+
 
 COLUMNS = [
     "mode", "process", "cache dir", "process [s]", "import [s]", "assemble [s]", "first simulate [s]",
@@ -95,8 +194,12 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--t-end", type=float, default=10.0, help="simulated time [s] (default 10)")
     ap.add_argument("--modes", nargs="+", choices=["fresh", "none", "default", "jax-env"], default=["fresh", "none"])
+    ap.add_argument("--table", action="store_true", help="time from import to the DataFrame (issue 20) instead")
+    ap.add_argument("--models", nargs="+", choices=["readme", "chain7"], default=["readme", "chain7"])
     add_output_args(ap, "compile_cache")
     args = ap.parse_args(argv)
+    if args.table:
+        return main_table(args)
 
     rows = []
     for mode in args.modes:

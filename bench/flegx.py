@@ -43,7 +43,7 @@ from proleg.robots import flegx_jump
 j = flegx_jump(link_model=%r, dt_output=1e-3)
 first = time.perf_counter() - t0
 t1 = time.perf_counter()
-r = pl.simulate(j.system, t_end=j.law.t_end, dt_output=1e-3, rtol=1e-5, atol=1e-6, progress=False)
+r = pl.simulate(j.system, t_end=j.law.t_end, dt_output=1e-3, integrator=pl.GeneralizedAlpha(rtol=1e-5, atol=1e-6), progress=False)
 rerun = time.perf_counter() - t1
 m = j.metrics
 print(json.dumps({"model": %r, "first [s]": first, "sim [s]": j.wall_s, "rerun [s]": rerun, "steps": r.stats["steps"],

@@ -45,7 +45,7 @@ def main():
     system = build()
 
     def final_x(k):
-        r = pl.simulate(system.with_params({"spring.stiffness": k}), t_end=a.t_end, dt_output=0.1, fixed_step=1e-3, jacobian_refresh=False, progress=False)
+        r = pl.simulate(system.with_params({"spring.stiffness": k}), t_end=a.t_end, dt_output=0.1, integrator=pl.GeneralizedAlpha(fixed_step=1e-3), progress=False)
         return r.part("lower").position[-1]
 
     rows = []

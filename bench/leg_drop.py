@@ -110,6 +110,7 @@ def build_leg(hinges: str):
 def impact_profile(system) -> dict:
     """A run cut into 5 ms chunks: steps, rejections and wall time within ±20 ms of touchdown."""
     import proleg as pl
+    from proleg.analyses.simulate import simulate_kwargs
 
     marks = []
     stats = []
@@ -118,9 +119,10 @@ def impact_profile(system) -> dict:
         marks.append(time.perf_counter())
         stats.append((float(r.t[-1]), r.stats["steps"], r.stats["rejected"]))
 
-    pl.simulate(system, t_end=T_END, dt_output=DT_OUT, chunk=1, progress=False, on_chunk=lambda r: None, **SIM)  # compile
+    kw = simulate_kwargs(dict(SIM, chunk=1))
+    pl.simulate(system, t_end=T_END, dt_output=DT_OUT, progress=False, on_chunk=lambda r: None, **kw)  # compile
     t0 = time.perf_counter()
-    res = pl.simulate(system, t_end=T_END, dt_output=DT_OUT, chunk=1, progress=False, on_chunk=on_chunk, **SIM)
+    res = pl.simulate(system, t_end=T_END, dt_output=DT_OUT, progress=False, on_chunk=on_chunk, **kw)
     fn = res.contact("foot").normal_force
     k = int(np.argmax(fn > 0))
     g = res.contact("foot").penetration

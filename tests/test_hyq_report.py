@@ -127,7 +127,7 @@ def test_run_drop_end_to_end(tmp_path):
     """The main job: three models + bench variant, report written; under 2 minutes on 2 cores
     is the target (checked by the bench script, not here: this only reports the time)."""
     t0 = time.perf_counter()
-    path = T.run_drop(tmp_path, progress=False)
+    path = R.run_drop(tmp_path, progress=False)
     elapsed = time.perf_counter() - t0
     html = path.read_text()
     assert len(re.findall(r"<figcaption>", html)) == len(FIGURES)

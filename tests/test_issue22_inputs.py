@@ -195,7 +195,6 @@ CASES = [
     ("pose_violates_joint", lambda s, r, p: violated(), W, "'hinge'.*0.05"),
     ("contact_stiffness_1e20", lambda s, r, p: pl.simulate(pl.assemble(ball(1e20)), 0.01), W, "'foot' stiffness 1e\\+20"),
     ("dt_output_above_t_end", lambda s, r, p: pl.simulate(s, 0.01, 0.1), W, "dt_output = 0.1 s is longer"),
-    ("fixed_step_not_dividing", lambda s, r, p: pl.simulate(s, 0.01, 1e-3, fixed_step=3e-4), W, "fixed_step = 0.0003 s does not divide"),
     ("plot_name_matches_nothing", lambda s, r, p: r.plot("hinge.Fq"), W, "'hinge.Fq' matches no output"),
     # -- with_params -----------------------------------------------------------------------------
     ("with_params_unknown", lambda s, r, p: s.with_params({"rod.weight": 2.0}), M, "'rod.weight'"),

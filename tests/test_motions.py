@@ -91,14 +91,16 @@ def system():
     # step slider
     block = model.add_part("block", M_STEP, (1e-3, 1e-3, 1e-3), (0, -1.0, 0))
     model.add_joint(pl.Prismatic("rail", block, gnd, at=(0, -1.0, 0), axis=(1, 0, 0)))
-    model.add_motion(pl.Motion("lift", joint="rail", displacement=lambda t: pl.fn.step(t, T0, 0.0, T1, X1)))
+    model.add_motion(pl.Motion("lift", joint="rail", displacement=lambda t: pl.fn.step(t, T0, 0.0, T1, X1), breakpoints=(T0, T1)))
     return pl.assemble(model)
 
 
 @pytest.fixture(scope="module")
 def result(system):
     # ≥ 256 outputs in every run here (the chunk size), so all runs share one compiled solver
-    return pl.simulate(system, t_end=T_END, dt_output=1e-3, rtol=RTOL, atol=ATOL)
+    # Steps of at most 1 ms (dt_max): the velocity checks below hold the O(h²) velocity error of
+    # index-3 generalized-α at that step; outputs no longer limit the step (dense output).
+    return pl.simulate(system, t_end=T_END, dt_output=1e-3, integrator=pl.GeneralizedAlpha(rtol=RTOL, atol=ATOL, dt_max=1e-3))
 
 
 def crank_kinematics(t):
@@ -132,7 +134,10 @@ def test_slider_crank_driving_torque_closed_form(result):
     tau = result.motion("crank").effort
     scale = np.max(np.abs(tau_exact))
     assert scale > 0.1  # a real load: gravity and inertia, ~0.5 N m
-    assert np.max(np.abs(tau - tau_exact)) < 1e-6 * scale
+    # 2e-6: outputs are read from the steps' dense output (solvers/driver.py); the largest error,
+    # 1.3e-6 (measured), is just after the block's STEP breakpoint t0 = 0.1 s in the same model,
+    # where the accelerations restart and the shared step sequence is cut (GA start-up layer, note §4).
+    assert np.max(np.abs(tau - tau_exact)) < 2e-6 * scale
     # the kinematics it rests on: crank angle and slider position
     np.testing.assert_allclose(result.motion("crank").coordinate, np.angle(np.exp(1j * OMEGA * t)), atol=1e-9)
     cx = np.array(jax.vmap(lambda s: crank_kinematics(s)[1])(jnp.asarray(t)))
@@ -192,7 +197,9 @@ def test_step_motion_law_in_a_model(result):
     v_exact = X1 * 6 * d * (1 - d) / dt
     blk = result.part("block")
     np.testing.assert_allclose(blk.position[:, 0], x_exact, rtol=0, atol=1e-10)
-    np.testing.assert_allclose(blk.velocity[:, 0], v_exact, rtol=0, atol=1e-5 * 1.5 * X1 / dt)  # O(h²), see above
+    # O(h²), see above; 2e-5: 4.0e-6 measured at t = 0.104 s, read from the dense output of the
+    # first steps after the restart at the breakpoint t0 (GA start-up layer, note §4)
+    np.testing.assert_allclose(blk.velocity[:, 0], v_exact, rtol=0, atol=2e-5 * 1.5 * X1 / dt)
     # first derivative continuous at both ends: |v| shrinks linearly towards t0 and t1
     for te in (T0, T1):
         near = np.abs(t - te) < 0.011

@@ -112,12 +112,15 @@ from .model.model import Model as Model
 from .model.parts import Marker as Marker
 from .model.parts import Part as Part
 from .assembly.system import System as System
-from .assembly.system import assemble as assemble
+from .assembly.assemble import assemble as assemble
 from .solvers.galpha import HHT as HHT
+from .solvers.galpha import AbstractIntegrator as AbstractIntegrator
 from .solvers.galpha import GeneralizedAlpha as GeneralizedAlpha
 from .solvers.ode import Dopri5 as Dopri5
 from .solvers.ode import Kvaerno5 as Kvaerno5
 from .solvers.ode import Tsit5 as Tsit5
+from .analyses.simulate import RunOptions as RunOptions
+from .analyses.simulate import SaveAt as SaveAt
 from .analyses.simulate import simulate as simulate
 from .analyses.sweep import SweepResult as SweepResult
 from .analyses.sweep import sweep as sweep

@@ -147,7 +147,7 @@ def check_simulate(system, args: dict, who: str = "simulate"):
     _scalar(who, "dt_init", g("dt_init"), unit="s", positive=True, allow_none=True)
     if dt_min is not None and dt_max is not None and not is_traced(dt_max) and dt_min > dt_max:
         raise ModelError(f"{who}: dt_min = {dt_min:g} s is above dt_max = {dt_max:g} s; give dt_min ≪ dt_max.")
-    fixed = _scalar(who, "fixed_step", g("fixed_step"), unit="s", positive=True, allow_none=True)
+    _scalar(who, "fixed_step", g("fixed_step"), unit="s", positive=True, allow_none=True)
     for name in ("max_newton", "chunk"):
         if name in args and g(name) is not None:
             _count(who, name, g(name))
@@ -162,18 +162,10 @@ def check_simulate(system, args: dict, who: str = "simulate"):
     if span is None:
         return
     t_span, dt_out = span
-    if fixed is not None:
-        if fixed > dt_out * (1 + 1e-9):
-            warn(f"{who}: fixed_step = {fixed:g} s is longer than the output interval {dt_out:g} s; every step is "
-                 "shortened to the output times. Give fixed_step ≤ dt_output.")
-        else:
-            n = dt_out / fixed
-            if abs(n - round(n)) > 1e-6 * max(1.0, n):
-                warn(f"{who}: fixed_step = {fixed:g} s does not divide the output interval {dt_out:g} s ({n:.4g} steps): "
-                     f"the last step of each interval is shortened. Use {dt_out / max(1, math.ceil(n)):.6g} s "
-                     f"(= dt_output / {max(1, math.ceil(n))}).")
+    # A fixed_step need not divide the output interval: outputs come from the steps' dense output
+    # (solvers/driver.py), so steps are never shortened to output times.
     if not _any_traced_params(system):
-        dt_max_eff = dt_max if dt_max is not None else min(dt_out, 1e-2)
+        dt_max_eff = dt_max if dt_max is not None else min(t_span, 1e-2)  # simulate's default
         stiffness_warnings(system, dt_max_eff, dt_min if dt_min is not None else 1e-10, who)
 
 

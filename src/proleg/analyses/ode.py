@@ -80,7 +80,7 @@ def simulate_ode(system, t_end, dt_output=None, *, t0=0.0, output_times=None, in
     Closed loops, motions and couplers run in the index-1 form (solvers/ode.py): a warning
     says when the loop constraints drift beyond 1e-6; GeneralizedAlpha/HHT (which run on
     joint coordinates too with ``coordinates="joint"``) keep them exactly."""
-    from .simulate import _consistent_state, initial_z, sample_period
+    from ..solvers.initial import _consistent_state, initial_z, sample_period
 
     t0, times = _output_times(t0, t_end, dt_output, output_times)
     if not t_end > t0:

@@ -68,5 +68,7 @@ def placed(fn):
 
     sig = inspect.signature(fn)
     extra = inspect.Parameter("device", inspect.Parameter.KEYWORD_ONLY, default=None)
-    wrapper.__signature__ = sig.replace(parameters=[*sig.parameters.values(), extra])
+    params = list(sig.parameters.values())
+    at = next((k for k, p in enumerate(params) if p.kind == inspect.Parameter.VAR_KEYWORD), len(params))
+    wrapper.__signature__ = sig.replace(parameters=[*params[:at], extra, *params[at:]])
     return wrapper

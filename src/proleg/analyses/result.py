@@ -17,32 +17,36 @@ from ..solvers.initial import kkt_accelerations
 
 
 class PartResult:
-    """Time histories of one part (ground frame). Accelerations are computed on first access.
+    """Time histories of one part (ground frame).
 
     position (n, 3) [m] COM · quaternion (n, 4) Euler parameters, scalar first · orientation
     (n, 3, 3) part axes → ground · euler_deg (n, 3) yaw-pitch-roll (Z-Y'-X'') [deg] · velocity
     (n, 3) [m/s] · angular_velocity (n, 3) [rad/s] · acceleration (n, 3) [m/s²] ·
     angular_acceleration (n, 3) [rad/s²]
+
+    On concrete results everything is NumPy (no JAX dispatch, so no compilation on access);
+    accelerations come from the post-processing compiled with the run (:attr:`Result.qdd`).
     """
 
     def __init__(self, result, name, b):
         self._res, self.name, self._b = result, name, b
-        q = result.q[:, 7 * b : 7 * b + 7]
-        v = result.v[:, 7 * b : 7 * b + 7]
+        q = result._host("q")[:, 7 * b : 7 * b + 7]
+        v = result._host("v")[:, 7 * b : 7 * b + 7]
         self._p = q[:, 3:]
-        self.position = result._np(q[:, :3])
-        self.quaternion = result._np(self._p)
-        self.velocity = result._np(v[:, :3])
-        from ..spatial.rotation import G_of_p
-
-        self._G = G_of_p(self._p)
-        self.angular_velocity = result._np(2.0 * jnp.einsum("nij,nj->ni", self._G, v[:, 3:]))
+        self.position = q[:, :3]
+        self.quaternion = self._p
+        self.velocity = v[:, :3]
+        self.angular_velocity = _omega(self._p, v[:, 3:])
 
     @cached_property
     def orientation(self):
         from ..spatial.rotation import A_of_p
 
-        return self._res._np(A_of_p(self._p))
+        if isinstance(self._p, jax.core.Tracer):
+            return A_of_p(self._p)
+        e0, e = self._p[:, 0], self._p[:, 1:]
+        A = (e0 * e0 - np.sum(e * e, 1))[:, None, None] * np.eye(3) + 2 * e[:, :, None] * e[:, None, :]
+        return A + 2 * e0[:, None, None] * _skew(e)
 
     @cached_property
     def euler_deg(self):
@@ -50,12 +54,23 @@ class PartResult:
 
     @cached_property
     def acceleration(self):
-        return self._res._np(self._res.qdd[:, 7 * self._b : 7 * self._b + 3])
+        return self._res.qdd[:, 7 * self._b : 7 * self._b + 3]
 
     @cached_property
     def angular_acceleration(self):
-        a = self._res.qdd[:, 7 * self._b + 3 : 7 * self._b + 7]
-        return self._res._np(2.0 * jnp.einsum("nij,nj->ni", self._G, a))  # Ġṗ = 0
+        return _omega(self._p, self._res.qdd[:, 7 * self._b + 3 : 7 * self._b + 7])  # Ġṗ = 0
+
+
+def _skew(e):
+    z = np.zeros(e.shape[0])
+    return np.stack([np.stack([z, -e[:, 2], e[:, 1]], 1), np.stack([e[:, 2], z, -e[:, 0]], 1), np.stack([-e[:, 1], e[:, 0], z], 1)], 1)
+
+
+def _omega(p, pd):
+    """ω = 2 G(p) ṗ = 2 (e0 ė − ė0 e + e × ė) (ground components), NumPy or JAX."""
+    xp = jnp if isinstance(p, jax.core.Tracer) or isinstance(pd, jax.core.Tracer) else np
+    e0, e, ed0, ed = p[:, :1], p[:, 1:], pd[:, :1], pd[:, 1:]
+    return 2.0 * (e0 * ed - ed0 * e + xp.cross(e, ed))
 
 
 @dataclass
@@ -114,18 +129,43 @@ class Result:
     def _np(self, x):
         return x if isinstance(x, jax.core.Tracer) else np.asarray(x)
 
-    # -- accelerations and multipliers at the outputs (note §5) --------------------------------
+    def _host(self, key):
+        """``q``, ``v``, ``w`` or ``z`` as NumPy (once) on a concrete result; as is under tracing."""
+        x = getattr(self, key)
+        if isinstance(x, jax.core.Tracer):
+            return x
+        cache = self.__dict__.setdefault("_host_cache", {})
+        if key not in cache or cache[key][0] is not x:
+            cache[key] = (x, np.asarray(x))
+        return cache[key][1]
+
+    # -- accelerations, multipliers, reactions, element outputs, energies (note §5) -------------
+    _compiled_post = None  # simulate(): the post-processing compiled with the run (or a Future of it)
+
     @cached_property
-    def _acc(self):
-        return _kkt_batch(self.system, self.q, self.v, jnp.asarray(self.t), self.z)
+    def _post(self):
+        args = (self.system, self.q, self.v, self.t, self.z)
+        fn = self._compiled_post
+        if hasattr(fn, "result"):
+            fn = fn.result()
+        if any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves(args)):
+            return post_batch(*args)
+        out = None
+        if fn is not None:
+            try:
+                out = fn(*args)
+            except (TypeError, ValueError):  # shapes differ (a failed run, a partial result)
+                out = None
+        out = post_batch(*args) if out is None else out
+        return jax.tree_util.tree_map(np.asarray, out)
 
     @property
     def qdd(self):
-        return self._acc[0]
+        return self._post["qdd"]
 
     @property
     def lam(self):
-        return self._acc[1]
+        return self._post["lam"]
 
     def _index(self, names, name, what):
         key = getattr(name, "name", name)
@@ -149,9 +189,9 @@ class Result:
         return ElementResult(position=self._np(mk.r[:, m]), velocity=self._np(mk.v[:, m]), orientation=self._np(mk.R[:, m]), angular_velocity=self._np(mk.w[:, m]))
 
     # -- joints --------------------------------------------------------------------------------
-    @cached_property
+    @property
     def _reactions(self):
-        return _reactions_jit(self.system, self.q, jnp.asarray(self.t), self.lam)
+        return self._post["reactions"]
 
     def joint(self, name) -> JointResult:
         owners = [o.name for o in self.system.topo.ct.owners]
@@ -160,18 +200,26 @@ class Result:
         return JointResult(str(getattr(name, "name", name)), *(self._np(x) for x in (F, T, Fl, Tl, ang, tr)))
 
     # -- force elements ------------------------------------------------------------------------
-    @cached_property
+    @property
     def _element_outputs(self):
-        return _outputs_batch(self.system, self.q, self.v, jnp.asarray(self.t), self.z)
+        return self._post["outputs"]
 
     def element_units(self):
+        """{group kind: {output: unit}}, read by tracing the outputs once (``jax.eval_shape``:
+        no compilation)."""
         out = {}
         sys_ = self.system
-        bk, mk = kinematics(sys_, self.q[0], self.v[0])
-        ctx = StateView(sys_.topo, bk, mk, self.t[0], self.z[0])
-        for g in sys_.topo.groups + sys_.topo.extensions:
-            if len(g) and hasattr(g, "outputs"):
-                out[g.kind] = {k: unit for k, (val, unit) in g.outputs(sys_.params, mk, self.t[0], ctx).items()}
+
+        def f(q, v, t, z):
+            bk, mk = kinematics(sys_, q, v)
+            ctx = StateView(sys_.topo, bk, mk, t, z)
+            for g in sys_.topo.groups + sys_.topo.extensions:
+                if len(g) and hasattr(g, "outputs"):
+                    out[g.kind] = {k: unit for k, (val, unit) in g.outputs(sys_.params, mk, t, ctx).items()}
+            return 0.0
+
+        q, v, z = (jax.ShapeDtypeStruct(np.shape(x)[1:], jnp.float64) for x in (self.q, self.v, self.z))
+        jax.eval_shape(f, q, v, jax.ShapeDtypeStruct((), jnp.float64), z)
         return out
 
     def element(self, name) -> ElementResult:
@@ -191,7 +239,7 @@ class Result:
         if fg is None or name not in fg.names:
             raise ModelError(f"No flexible body named '{name}' in the result.")
         k = fg.names.index(name)
-        return self._np(self.q[:, fg.off[k] : fg.off[k] + fg.bodies[k].n_eta])
+        return self._host("q")[:, fg.off[k] : fg.off[k] + fg.bodies[k].n_eta]
 
     def stress(self, name) -> ElementResult:
         """Stress recovery of a flexible body built with ``stress=(points, fn)``: ``tensor`` (n, k, 3, 3)
@@ -219,7 +267,7 @@ class Result:
             if g.kind == "controller" and key in g.names:
                 k = g.names.index(key)
                 off, size = g.slices[k]
-                zs = self.z[:, off : off + size]
+                zs = self._host("z")[:, off : off + size]
                 e = g.elements[k]
                 out = zs[:, 0] if e.kind == "pid" else zs[:, e.z0.size :]
                 res = ElementResult(output=self._np(out), state=self._np(zs))
@@ -264,8 +312,9 @@ class Result:
     @cached_property
     def energy(self) -> ElementResult:
         """kinetic, potential, dissipated, input and total = T + V + dissipated − input [J]."""
-        T, V = _energy_batch(self.system, self.q, self.v, jnp.asarray(self.t), self.z)
-        D, W = self.w[:, 0], self.w[:, 1]
+        T, V = self._post["energy"]
+        w = self._host("w")
+        D, W = w[:, 0], w[:, 1]
         return ElementResult(kinetic=self._np(T), potential=self._np(V), dissipated=self._np(D), input=self._np(W), total=self._np(T + V + D - W))
 
     def constraint_residual(self):
@@ -366,53 +415,48 @@ class Result:
         return f"Result({self.system.topo.name!r}: {len(self.t)} outputs to t = {self.t[-1]:.4g} s, {self.stats['steps']} steps, {self.message})"
 
 
-def _joint_reactions(system: System, q, t, lam):
-    """Reactions on part I of every constraint owner (joints, then motions), note §5."""
+def _joint_reactions_one(system: System, qk, tk, lk):
+    """Reactions on part I of every constraint owner (joints, then motions) at one time, note §5:
+    (F, T, F_local, T_local, angle, translation), each (nowner, ...)."""
     topo = system.topo
     ct = topo.ct
     nowner = len(ct.owners)
-    mi = np.array([o_mi for o_mi in _owner_markers(topo)[0]], int)
-    mj = np.array([o_mj for o_mj in _owner_markers(topo)[1]], int)
-    masks = np.stack([(ct.row_owner == k).astype(float) for k in range(nowner)]) if nowner else np.zeros((0, ct.n_rows))
+    if nowner == 0:
+        z = jnp.zeros((0, 3))
+        return z, z, z, z, jnp.zeros(0), jnp.zeros(0)
+    mi, mj = (np.array(m, int) for m in _owner_markers(topo))
+    masks = np.stack([(ct.row_owner == k).astype(float) for k in range(nowner)])
     bi = topo.marker_body[mi]
     bj = topo.marker_body[mj]
     nb = topo.nbody
+    _, vjp = jax.vjp(lambda qq: constraints(system, qq, tk), qk)
+    Qc = -jax.vmap(lambda m: vjp(lk * m)[0])(jnp.asarray(masks))  # (nowner, nq)
+    bk, mk = kinematics(system, qk)
+    Qb = Qc[:, : 7 * nb].reshape(nowner, nb, 7)
 
-    def at_time(qk, tk, lk):
-        _, vjp = jax.vjp(lambda qq: constraints(system, qq, tk), qk)
-        Qc = -jax.vmap(lambda m: vjp(lk * m)[0])(jnp.asarray(masks))  # (nowner, nq)
-        bk, mk = kinematics(system, qk)
-        Qb = Qc[:, : 7 * nb].reshape(nowner, nb, 7)
+    def side(b, m):
+        bb = jnp.minimum(b, nb - 1)
+        Fb = Qb[jnp.arange(nowner), bb, :3]
+        Qp = Qb[jnp.arange(nowner), bb, 3:]
+        L = L_of_p(bk.p[bb])
+        n_body = 0.5 * jnp.einsum("nij,nj->ni", L, Qp)
+        A = bk.A[bb]
+        s = system.params["marker_s"][m]
+        n_m = n_body - jnp.cross(s, jnp.einsum("nji,nj->ni", A, Fb))
+        return Fb, jnp.einsum("nij,nj->ni", A, n_m)
 
-        def side(b, m):
-            bb = jnp.minimum(b, nb - 1)
-            Fb = Qb[jnp.arange(nowner), bb, :3]
-            Qp = Qb[jnp.arange(nowner), bb, 3:]
-            L = L_of_p(bk.p[bb])
-            n_body = 0.5 * jnp.einsum("nij,nj->ni", L, Qp)
-            A = bk.A[bb]
-            s = system.params["marker_s"][m]
-            n_m = n_body - jnp.cross(s, jnp.einsum("nji,nj->ni", A, Fb))
-            return Fb, jnp.einsum("nij,nj->ni", A, n_m)
-
-        FI, TI = side(jnp.asarray(bi), jnp.asarray(mi))
-        FJ, TJ = side(jnp.asarray(bj), jnp.asarray(mj))
-        rI, rJ = mk.r[mi], mk.r[mj]
-        FI_from_J = -FJ
-        TI_from_J = -TJ - jnp.cross(rI - rJ, FI_from_J)
-        ground_i = jnp.asarray(bi == nb)[:, None]
-        F = jnp.where(ground_i, FI_from_J, FI)
-        T = jnp.where(ground_i, TI_from_J, TI)
-        RI, RJ = mk.R[mi], mk.R[mj]
-        Fl = jnp.einsum("nji,nj->ni", RI, F)
-        Tl = jnp.einsum("nji,nj->ni", RI, T)
-        return F, T, Fl, Tl, joint_angle(RI, RJ), joint_translation(rI, rJ, RJ)
-
-    if nowner == 0:
-        n = q.shape[0]
-        z = jnp.zeros((n, 0, 3))
-        return z, z, z, z, jnp.zeros((n, 0)), jnp.zeros((n, 0))
-    return jax.vmap(at_time)(q, t, lam)
+    FI, TI = side(jnp.asarray(bi), jnp.asarray(mi))
+    FJ, TJ = side(jnp.asarray(bj), jnp.asarray(mj))
+    rI, rJ = mk.r[mi], mk.r[mj]
+    FI_from_J = -FJ
+    TI_from_J = -TJ - jnp.cross(rI - rJ, FI_from_J)
+    ground_i = jnp.asarray(bi == nb)[:, None]
+    F = jnp.where(ground_i, FI_from_J, FI)
+    T = jnp.where(ground_i, TI_from_J, TI)
+    RI, RJ = mk.R[mi], mk.R[mj]
+    Fl = jnp.einsum("nji,nj->ni", RI, F)
+    Tl = jnp.einsum("nji,nj->ni", RI, T)
+    return F, T, Fl, Tl, joint_angle(RI, RJ), joint_translation(rI, rJ, RJ)
 
 
 def _owner_markers(topo):
@@ -436,12 +480,22 @@ def _one_outputs(system, q, v, t, z):
     }
 
 
-_kkt_batch = jax.jit(jax.vmap(kkt_accelerations, in_axes=(None, 0, 0, 0, 0)))
+def _post_one(system, q, v, t, z):
+    """Everything a table needs at one output: accelerations and multipliers (KKT, note §5), joint
+    reactions, element outputs, kinetic and potential energy."""
+    qdd, lam = kkt_accelerations(system, q, v, t, z)
+    T, V = kinematic_energy_terms(system, q, v, t, z)
+    return {"qdd": qdd, "lam": lam, "reactions": _joint_reactions_one(system, q, t, lam),
+            "outputs": _one_outputs(system, q, v, t, z), "energy": (T, V)}
+
+
+# One executable for all the post-processing of a run (one compile per model and output count):
+# simulate() compiles it while the run compiles (prepare_outputs), so the first table costs no
+# second compile.
+post_batch = jax.jit(jax.vmap(_post_one, in_axes=(None, 0, 0, 0, 0)))
 _marker_batch = jax.jit(jax.vmap(lambda s, q, v: kinematics(s, q, v)[1], in_axes=(None, 0, 0)))
-_reactions_jit = jax.jit(_joint_reactions)
-_outputs_batch = jax.jit(jax.vmap(_one_outputs, in_axes=(None, 0, 0, 0, 0)))
-_energy_batch = jax.jit(jax.vmap(kinematic_energy_terms, in_axes=(None, 0, 0, 0, 0)))
 _residual_batch = jax.jit(jax.vmap(lambda s, q, t: jnp.max(jnp.abs(constraints(s, q, t))), in_axes=(None, 0, 0)))
+_outputs_batch = jax.jit(jax.vmap(_one_outputs, in_axes=(None, 0, 0, 0, 0)))
 
 
 def _atomic_parquet(df, path) -> None:

@@ -3,84 +3,24 @@ error-controlled implicit integrator over the requested output times."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
-from functools import partial
+from dataclasses import dataclass
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from ..assembly.coordinates import coordinate_set
-from ..assembly.system import System, constraints, generalized_forces, power_terms
-from ..errors import ConvergenceError, Interrupted, SolverError, Status
-from ..solvers.driver import DriverOptions, advance, sample_controllers
-from ..solvers.galpha import GeneralizedAlpha, StepOptions, StepState
-from ..solvers.initial import _normalize_p, kkt_accelerations, mass_matrix
+from ..assembly.system import System
+from ..errors import Interrupted, ModelError, SolverError, Status
+from ..solvers.driver import DriverOptions, advance, knot
+from ..solvers.galpha import GeneralizedAlpha, StepState
+from ..solvers.initial import _consistent_state, consistent_state, initial_z, sample_period  # noqa: F401 (re-exported)
 from .checks import check_simulate
-from .placement import _any_traced, is_traced, placed
+from .placement import _any_traced, placed
 from .result import ChunkStore, Result
-
-
-def _ic_positions(system: System, q_user, t0, n_iter: int):
-    nb = system.topo.nbody
-    q_user = _normalize_p(q_user, nb)
-
-    def gn(q, _):
-        phi = constraints(system, q, t0)
-        Pq = jax.jacfwd(lambda qq: constraints(system, qq, t0))(q)
-        nq, nc = q.shape[0], phi.shape[0]
-        S = jnp.block([[jnp.eye(nq), Pq.T], [Pq, jnp.zeros((nc, nc))]])
-        dx = jnp.linalg.solve(S, jnp.concatenate([q_user - q, -phi]))
-        return _normalize_p(q + dx[:nq], nb), None
-
-    q, _ = jax.lax.scan(gn, q_user, None, length=n_iter)
-    return q, jnp.max(jnp.abs(constraints(system, q, t0)))
-
-
-@partial(jax.jit, static_argnums=(4,))
-def _ic(system: System, q_user, v_user, t0, n_iter: int, z0):
-    """One compiled initial-conditions analysis: positions (Gauss-Newton), velocities (M-weighted
-    projection), a controller sample at t0, accelerations and multipliers (KKT), powers."""
-    q, res = _ic_positions(system, q_user, t0, n_iter)
-    M = mass_matrix(system, q)
-    Pq = jax.jacfwd(lambda qq: constraints(system, qq, t0))(q)
-    Pt = jax.jacfwd(lambda tt: constraints(system, q, tt))(t0)
-    nq, nc = q.shape[0], Pq.shape[0]
-    S = jnp.block([[M, Pq.T], [Pq, jnp.zeros((nc, nc))]])
-    v = jnp.linalg.solve(S, jnp.concatenate([M @ v_user, -Pt]))[:nq]
-    z = sample_controllers(system, t0, q, v, z0, True)
-    qdd, lam = kkt_accelerations(system, q, v, t0, z)
-    # HHT carries g = (Φ_qᵀλ − Q) of the previous step; start it consistently (not 0).
-    _, vjp = jax.vjp(lambda qq: constraints(system, qq, t0), q)
-    g = vjp(lam)[0] - generalized_forces(system, q, v, t0, z)
-    return q, v, qdd, lam, z, (power_terms(system, q, v, t0, z), g), res
-
-
-def consistent_state(system: System, q_user=None, v_user=None, t0=0.0, z0=None, tol=1e-10):
-    """Initial (q, v, q̈, λ, z) satisfying the constraints at position, velocity and acceleration level."""
-    return _consistent_state(system, q_user, v_user, t0, z0, tol)[:5]
-
-
-def _consistent_state(system, q_user, v_user, t0, z0, tol=1e-10):
-    q_user = system.params["q_init"] if q_user is None else jnp.asarray(q_user, jnp.float64)
-    v_user = system.params["v_init"] if v_user is None else jnp.asarray(v_user, jnp.float64)
-    t0 = jnp.asarray(t0, jnp.float64)
-    z0 = initial_z(system) if z0 is None else z0
-    q, v, qdd, lam, z, pw, res = _ic(system, q_user, v_user, t0, 8, z0)
-    if not is_traced(res):
-        tries = 0
-        while float(res) > tol and tries < 6:
-            q, v, qdd, lam, z, pw, res = _ic(system, q, v_user, t0, 8, z0)
-            tries += 1
-        if not float(res) <= tol:
-            row = int(jnp.argmax(jnp.abs(jax.jit(constraints)(system, q, t0))))
-            elem, lab = system.topo.ct.labels[row]
-            raise ConvergenceError(
-                f"Initial conditions: model '{system.topo.name}' cannot be assembled (constraint residual "
-                f"{float(res):.3g} in '{elem}', equation {lab}). Check joint locations and part poses."
-            )
-    return q, v, qdd, lam, z, pw
 
 
 def _ic_report(system, q, v):
@@ -100,17 +40,118 @@ def _ic_report(system, q, v):
     return out
 
 
-def initial_z(system: System):
-    parts = [jnp.asarray(g.z0(system.params)) for g in system.topo.extensions if hasattr(g, "z0")]
-    return jnp.concatenate(parts) if parts else jnp.zeros(0)
+def motion_breakpoints(system: System) -> tuple:
+    """Times [s] where a motion law's derivatives jump, as declared by ``Motion(breakpoints=...)``:
+    the integrator steps to each exactly instead of interpolating across it."""
+    return tuple(sorted({float(b) for o in system.topo.ct.owners for b in (getattr(o, "breakpoints", None) or ())}))
 
 
-def sample_period(system: System):
-    periods = [g.period for g in system.topo.extensions if getattr(g, "period", None)]
-    if not periods:
-        return None
-    base = min(periods)
-    return float(base)
+@dataclass(frozen=True)
+class SaveAt:
+    """Which outputs :func:`simulate` returns (Diffrax's ``SaveAt``): every ``dt`` [s] from t0 to
+    t_end (plus t_end), or at the strictly increasing ``times`` [s]. Outputs between steps come
+    from the dense output of the steps (solvers/driver.py), so asking for many costs little."""
+
+    dt: float | None = None
+    times: tuple | np.ndarray | None = None
+
+    def output_times(self, t0: float, t_end: float) -> np.ndarray:
+        if self.times is not None:
+            times = np.asarray(self.times, float).ravel()
+            if times.size == 0 or np.any(np.diff(times) <= 0) or not np.all(np.isfinite(times)):
+                raise ModelError("SaveAt times (output_times) must be finite and strictly increasing [s].")
+            return times
+        dt = (t_end - t0) / 500.0 if self.dt is None else float(self.dt)
+        if not dt > 0:
+            raise ModelError(f"SaveAt dt (dt_output) must be positive [s], got {self.dt}.")
+        n = int(math.floor((t_end - t0) / dt + 1e-9))
+        times = t0 + dt * np.arange(n + 1)
+        if times[-1] < t_end - 1e-12 * max(1.0, abs(t_end)):
+            times = np.append(times, t_end)
+        return times
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """How :func:`simulate` runs (not what it computes).
+
+    Parameters
+    ----------
+    progress : show a progress bar (default: on when stderr is a terminal and the run has
+        several chunks)
+    throw : raise :class:`SolverError` on failure (its ``.result`` holds what was computed);
+        otherwise return a Result whose ``status``/``message`` say what happened
+    on_chunk : callable(Result) called after each chunk (e.g. to write partial results)
+    chunk : output times per compiled call (default 256): the unit of progress, ``on_chunk``
+        and interruption
+    free_running : under ``jax.vmap``, let each variant step through all its output times
+        without waiting for the others at each one (solvers/driver.py ``advance``; what
+        :func:`proleg.sweep` uses); the same results, ~2× fewer batch iterations
+    prepare_outputs : compile the post-processing of the outputs (accelerations, multipliers,
+        joint reactions, element outputs, energies: analyses/result.py ``post_batch``) in a
+        second thread while the run compiles and runs, so that the first ``result.to_frame()``
+        (or ``.joint()``, ``.element()``, ``.energy``) compiles nothing. Default: on for a
+        single (not traced) run. Off saves that compile where only states are read.
+    """
+
+    progress: bool | None = None
+    throw: bool = True
+    on_chunk: object = None
+    chunk: int = 256
+    free_running: bool = False
+    prepare_outputs: bool = True
+
+
+# Old keyword spellings of simulate (one release, with a DeprecationWarning): where they live now.
+_INTEGRATOR_KEYS = ("rtol", "atol", "atol_p", "dt_init", "dt_min", "dt_max", "fixed_step", "max_newton", "jacobian_reuse", "lu_per_lane")
+_RUN_KEYS = ("chunk", "free_running")
+
+
+def simulate_options(integrator=None, run=None, *, warn: bool = False, **flat):
+    """Group flat options (``rtol=``, ``dt_max=``, ``chunk=``, ...) into the integrator object and
+    :class:`RunOptions`; returns (integrator, run). For option dictionaries from files (a study's
+    or model file's ``simulate:`` section), where flat keys are the format; :func:`simulate`
+    itself accepts them for one release with a DeprecationWarning (``warn=True``)."""
+    integrator = integrator if integrator is not None else GeneralizedAlpha()
+    run = run if run is not None else RunOptions()
+    unknown = sorted(set(flat) - set(_INTEGRATOR_KEYS) - set(_RUN_KEYS) - {"jacobian_refresh"})
+    if unknown:
+        raise TypeError(f"simulate() got unexpected keyword argument(s) {unknown}.")
+    integ = {k: flat[k] for k in _INTEGRATOR_KEYS if k in flat}
+    if "jacobian_refresh" in flat:  # False forced a fresh matrix every step: no reuse
+        integ["jacobian_reuse"] = bool(integ.get("jacobian_reuse", integrator.jacobian_reuse) and flat["jacobian_refresh"])
+    runk = {k: flat[k] for k in _RUN_KEYS if k in flat}
+    if warn:
+        import warnings
+
+        iname = type(integrator).__name__
+        old_i = [k for k in flat if k not in _RUN_KEYS]
+        old_r = [k for k in flat if k in _RUN_KEYS]
+        for keys, cls, arg in ((old_i, iname, "integrator"), (old_r, "RunOptions", "run")):
+            if keys:
+                new = ", ".join(f"{'jacobian_reuse' if k == 'jacobian_refresh' else k}=..." for k in keys)
+                warnings.warn(
+                    f"simulate({', '.join(k + '=...' for k in keys)}) is deprecated and will be removed in the next "
+                    f"release: pass {arg}={cls}({new}).", DeprecationWarning, stacklevel=4,
+                )
+    if integ:
+        integrator = dataclasses.replace(integrator, **integ)
+    if runk:
+        run = dataclasses.replace(run, **runk)
+    return integrator, run
+
+
+def simulate_kwargs(kw: dict) -> dict:
+    """``kw`` for :func:`simulate` with flat option keys (``rtol``, ``dt_max``, ``chunk``, ...)
+    moved into ``integrator=`` and ``run=`` (no warning: for option dictionaries from files and
+    studies, whose flat keys are their format)."""
+    old = set(_INTEGRATOR_KEYS) | set(_RUN_KEYS) | {"jacobian_refresh"}
+    flat = {k: v for k, v in kw.items() if k in old}
+    if not flat:
+        return dict(kw)
+    rest = {k: v for k, v in kw.items() if k not in old}
+    integrator, run = simulate_options(rest.pop("integrator", None), rest.pop("run", None), **flat)
+    return {**rest, "integrator": integrator, "run": run}
 
 
 @placed
@@ -121,108 +162,113 @@ def simulate(
     *,
     t0: float = 0.0,
     output_times=None,
+    saveat: SaveAt | None = None,
     integrator=None,
-    rtol: float = 1e-6,
-    atol: float = 1e-7,
-    atol_p: float | None = None,
-    dt_init: float | None = None,
-    dt_min: float = 1e-10,
-    dt_max: float | None = None,
-    fixed_step: float | None = None,
-    max_newton: int = 10,
-    jacobian_refresh: bool = True,
-    jacobian_reuse: bool = False,
     coordinates: str = "auto",
     q0=None,
     v0=None,
+    run: RunOptions | None = None,
     progress: bool | None = None,
-    throw: bool = True,
-    chunk: int = 256,
+    throw: bool | None = None,
     on_chunk=None,
-    free_running: bool = False,
-    lu_per_lane: bool = False,
     store=None,
+    **deprecated,
 ) -> Result:
     """Integrate ``system`` from ``t0`` to ``t_end``; outputs every ``dt_output`` (or at ``output_times``).
 
     Parameters
     ----------
-    integrator : GeneralizedAlpha (default, ρ∞ = 0.8) or HHT; or Tsit5, Dopri5, Kvaerno5 (order 5,
-        Diffrax, error control on positions and velocities) for loop-free trees, which run in joint
-        coordinates (solvers/ode.py, analyses/ode.py; their own rtol/atol apply)
-    rtol, atol, atol_p : local error tolerances (relative; translations [m]; Euler parameters [-])
-    fixed_step : float [s], optional — a fixed step (no error control); output times must be multiples
-    dt_max : float [s], default min(dt_output, 1e-2)
-    progress : show a progress bar (default: on when stderr is a terminal and the run has several chunks)
-    throw : raise :class:`SolverError` on failure (its ``.result`` holds what was computed);
-        otherwise return a Result whose ``status``/``message`` say what happened
-    on_chunk : callable(Result) called after each chunk (e.g. to write partial results)
+    t_end, t0 : float [s]
+    dt_output : float [s], optional — output spacing (default (t_end − t0)/500); or
+        ``output_times`` (strictly increasing [s]), or ``saveat=SaveAt(dt=..., times=...)``.
+        Outputs do not limit the steps: they come from the steps' dense output.
+    integrator : :class:`GeneralizedAlpha` (default, ρ∞ = 0.8) or :class:`HHT`, carrying its
+        options: tolerances, step limits, fixed step, Newton settings
+        (:class:`proleg.solvers.galpha.AbstractIntegrator`), e.g.
+        ``GeneralizedAlpha(rtol=1e-8, atol=1e-9, dt_max=1e-3)``; or :class:`Tsit5`, :class:`Dopri5`,
+        :class:`Kvaerno5` (order 5, Diffrax, error control on positions and velocities) for
+        loop-free trees, which run in joint coordinates (solvers/ode.py, analyses/ode.py)
     store : path, optional — stream the outputs to a Parquet dataset (a folder of one file per
         chunk, each written atomically) as the run goes; ``pandas.read_parquet(store)`` reads what
         was finished even if the process died (:class:`proleg.analyses.result.ChunkStore`);
         :func:`proleg.read_store` rebuilds the Result. Ctrl-C raises :class:`proleg.Interrupted`
         whose ``.result`` holds the finished chunks.
-    jacobian_reuse : keep the Newton matrix across steps (modified Newton, as in Adams): fewer
-        matrix builds, linear convergence; see :class:`proleg.solvers.galpha.StepOptions`.
-        Under ``jax.vmap`` the rebuild decisions are batch-wide (solvers/batching.py).
-    free_running : under ``jax.vmap``, let each variant step through all its output times
-        without waiting for the others at each one (solvers/driver.py ``advance``; what
-        :func:`proleg.sweep` uses); the same results, ~2× fewer batch iterations
-    lu_per_lane : under ``jax.vmap``, one LAPACK LU call per variant instead of jaxlib's batched
-        LU, which can deadlock when two batches run at once in threads
-        (:class:`proleg.solvers.galpha.StepOptions`; :func:`proleg.sweep` sets it for its workers)
-    jacobian_refresh : accepted for compatibility; ``False`` forces a fresh matrix every step
-        (the default already builds one per step)
-    device : None (default: a single run goes to the CPU even where JAX's default device is a
-        GPU, which is ~8× slower for one variant; inside ``jit``/``vmap`` JAX places it), a
-        platform name ("cpu", "gpu", ...), "default", or a ``jax.Device`` (analyses/placement.py)
     coordinates : "auto" (default), "absolute", "planar" or "joint" — the coordinates the integrator
         runs on (assembly/coordinates.py). "auto" runs a planar mechanism (one whose joints confine
         every part to a plane: ``system.topo.planar`` says whether and why) on 3 coordinates per
         part, an exact reduction, several times faster; "joint" runs joint coordinates of the
         joints' spanning tree (assembly/joint_coordinates.py); results are always absolute.
         ``result.coordinates`` says which ran.
+    q0, v0 : initial coordinates and velocities (default: the modelled pose and velocities),
+        made consistent with the constraints
+    run : :class:`RunOptions` (progress, throw, on_chunk, chunk, free_running); ``progress``,
+        ``throw`` and ``on_chunk`` may also be given directly
+    device : None (default: a single run goes to the CPU even where JAX's default device is a
+        GPU, which is ~8× slower for one variant; inside ``jit``/``vmap`` JAX places it), a
+        platform name ("cpu", "gpu", ...), "default", or a ``jax.Device`` (analyses/placement.py)
+
+    The keywords ``rtol, atol, atol_p, dt_init, dt_min, dt_max, fixed_step, max_newton,
+    jacobian_reuse, jacobian_refresh, lu_per_lane`` (now options of the integrator) and
+    ``chunk, free_running`` (now :class:`RunOptions`) still work for one release, with a
+    DeprecationWarning naming the new place.
 
     Works under ``jax.vmap`` and ``jax.jacfwd`` (the Python loop over chunks is static).
     """
-    check_simulate(system, locals())
-    if store is not None:
-        on_chunk = ChunkStore(store, on_chunk)
-    integrator = integrator or GeneralizedAlpha()
     if getattr(integrator, "ode", False):  # Tsit5, Dopri5, Kvaerno5: joint-coordinate ODE (analyses/ode.py)
         from .ode import simulate_ode
 
+        times = saveat.times if saveat is not None else output_times
+        dt_out = saveat.dt if saveat is not None else dt_output
+        check_simulate(system, dict(t_end=t_end, dt_output=dt_out, t0=t0, output_times=times, q0=q0, v0=v0,
+                                    dt_max=deprecated.get("dt_max"), fixed_step=deprecated.get("fixed_step")))
+        unknown = sorted(set(deprecated) - {"dt_max", "fixed_step"})
+        if unknown:
+            raise ModelError(f"simulate: {unknown} are options of GeneralizedAlpha/HHT, not of {type(integrator).__name__} "
+                             "(give rtol/atol to the integrator object, e.g. Tsit5(rtol=1e-8)).")
         return simulate_ode(
-            system, t_end, dt_output, t0=t0, output_times=output_times, integrator=integrator, q0=q0, v0=v0,
-            dt_max=dt_max, fixed_step=fixed_step, throw=throw,
+            system, t_end, dt_out, t0=t0, output_times=times, integrator=integrator, q0=q0, v0=v0,
+            dt_max=deprecated.get("dt_max"), fixed_step=deprecated.get("fixed_step"), throw=True if throw is None else throw,
         )
-    if output_times is None:
-        if dt_output is None:
-            dt_output = (t_end - t0) / 500.0
-        n = int(math.floor((t_end - t0) / dt_output + 1e-9))
-        times = t0 + dt_output * np.arange(n + 1)
-        if times[-1] < t_end - 1e-12 * max(1.0, abs(t_end)):
-            times = np.append(times, t_end)
-    else:
-        times = np.asarray(output_times, float)
-        if np.any(np.diff(times) <= 0):
-            raise ValueError("output_times must be strictly increasing.")
+    integrator, run = simulate_options(integrator, run, warn=True, **deprecated)
+    ig = integrator
+    check_simulate(system, dict(
+        t_end=t_end, t0=t0, dt_output=saveat.dt if saveat is not None else dt_output,
+        output_times=saveat.times if saveat is not None else output_times, q0=q0, v0=v0, store=store,
+        rtol=ig.rtol, atol=ig.atol, atol_p=ig.atol_p, dt_init=ig.dt_init, dt_min=ig.dt_min, dt_max=ig.dt_max,
+        fixed_step=ig.fixed_step, max_newton=ig.max_newton, chunk=run.chunk,
+    ))
+    progress = run.progress if progress is None else progress
+    throw = run.throw if throw is None else throw
+    on_chunk = run.on_chunk if on_chunk is None else on_chunk
+    if store is not None:
+        on_chunk = ChunkStore(store, on_chunk)
+    chunk, free_running = run.chunk, run.free_running
+    if saveat is None:
+        saveat = SaveAt(dt=dt_output, times=output_times)
+    if saveat.times is not None:
+        times = saveat.output_times(t0, t_end)
         t0 = float(times[0]) if t0 == 0.0 and times[0] > 0 else t0
     if not t_end > t0:
         raise ValueError(f"t_end ({t_end}) must be greater than t0 ({t0}).")
-    dt_out = float(np.min(np.diff(times))) if len(times) > 1 else t_end - t0
-    dt_out = float(f"{dt_out:.10g}")  # a static option: strip round-off so t_end changes do not recompile
+    if saveat.times is None:
+        times = saveat.output_times(t0, t_end)
+    ig = integrator
+    fixed_step = ig.fixed_step
     dopts = DriverOptions(
-        step=StepOptions(
-            rtol=rtol, atol=atol, atol_p=atol if atol_p is None else atol_p, max_newton=max_newton,
-            jacobian_reuse=bool(jacobian_reuse and jacobian_refresh), lu_per_lane=bool(lu_per_lane),
-        ),
-        dt_min=dt_min,
-        dt_max=float(dt_max if dt_max is not None else min(dt_out, 1e-2)),
-        fixed_step=fixed_step,
+        step=ig.step_options(),
+        dt_min=float(ig.dt_min),
+        # a static option: strip round-off so t_end changes do not recompile
+        dt_max=float(ig.dt_max if ig.dt_max is not None else f"{min(t_end - t0, 1e-2):.10g}"),
+        fixed_step=None if fixed_step is None else float(fixed_step),
         sample_period=sample_period(system),
+        breakpoints=motion_breakpoints(system),
     )
+    dt_init = ig.dt_init
+    integrator = ig.method  # what the compiled step depends on; the options are in dopts
     z0 = initial_z(system)
+    post = None
+    if run.prepare_outputs and not _any_traced((system.params, q0, v0)):
+        post = _compile_post(system, len(times), z0)
     q, v, qdd, lam, z0, (pw, g0) = _consistent_state(system, q0, v0, t0, z0)
     q_ic, v_ic = q, v
     traced = _any_traced((system.params, q))
@@ -234,13 +280,15 @@ def simulate(
     n_newton = dyn.nq + dyn.nc
     st = StepState(
         t=jnp.asarray(t0, jnp.float64), q=q, v=v, a=qdd, qdd=qdd, lam=lam,
-        h_prev=jnp.asarray(1.0), w=jnp.zeros(2), pw=pw, z=z0, g=g0,
-        Jfac=(jnp.zeros((n_newton, n_newton)), jnp.arange(n_newton, dtype=jnp.int32)), jac_h=jnp.asarray(0.0), jac_ok=jnp.asarray(False), jac_hold=jnp.asarray(0), jac_pen=jnp.asarray(0),
+        h_prev=jnp.asarray(1.0, jnp.float64), w=jnp.zeros(2), pw=pw, z=z0, g=g0,
+        Jfac=(jnp.zeros((n_newton, n_newton)), jnp.arange(n_newton, dtype=jnp.int32)), jac_h=jnp.asarray(0.0, jnp.float64), jac_ok=jnp.asarray(False), jac_hold=jnp.asarray(0, jnp.int32), jac_pen=jnp.asarray(0, jnp.int32),
     )
     h = jnp.asarray(dt_init if dt_init is not None else (fixed_step or min(1e-4, dopts.dt_max)), jnp.float64)
     st = st._replace(h_prev=h)
+    seg = (knot(st), knot(st))  # the last accepted step (dense output); none yet
 
     out_t = times[1:] if times[0] == t0 else times
+    t_stop = jnp.asarray(out_t[-1], jnp.float64)  # steps never go past the last output
     K = int(min(chunk, max(1, len(out_t))))
     nchunks = int(math.ceil(len(out_t) / K))
     rec = {"q": [q_ic[None]], "v": [v_ic[None]], "w": [jnp.zeros((1, 2))], "z": [z0[None]]}
@@ -262,7 +310,9 @@ def simulate(
             tc = out_t[c * K : (c + 1) * K]
             n_valid = len(tc)
             tpad = np.concatenate([tc, np.full(K - n_valid, tc[-1])])
-            st, h, k, bufs, (ns, nr, nn, nj), stat, ft, wr = advance(dyn, integrator, dopts, st, h, jnp.asarray(tpad), n_valid, free_running)
+            st, h, k, bufs, (ns, nr, nn, nj), stat, ft, wr, seg = advance(
+                dyn, integrator, dopts, st, h, jnp.asarray(tpad), n_valid, free_running, t_stop, seg
+            )
             if dyn.kind != "absolute":
                 bufs = (*_to_absolute(dyn, bufs[0], bufs[1]), *bufs[2:])
             if traced:
@@ -285,7 +335,7 @@ def simulate(
                 status, fail_t, worst = Status(int(stat)), float(ft), dyn.absolute_row(int(wr))
                 break
             if on_chunk is not None:
-                partial_result = _build(system, rec_t, rec, stats, status, "running", integrator)
+                partial_result = _build(system, rec_t, rec, stats, status, "running", ig)
                 on_chunk(partial_result)
     except KeyboardInterrupt:
         if traced:
@@ -303,8 +353,10 @@ def simulate(
         msg = f"{status.describe()} at t = {fail_t:.6g} s; the result holds the outputs up to there."
     elif status != Status.SUCCESS:
         msg = _failure_message(system, status, fail_t, worst)
-    result = _build(system, rec_t, rec, stats, status, msg, integrator)
+    result = _build(system, rec_t, rec, stats, status, msg, ig)
     result.coordinates = dyn.kind
+    if post is not None and len(result.t) == len(times):
+        result._compiled_post = post
     if traced:  # status, failure time and counters as arrays (a Result's own fields need concrete values)
         result.traced_status = (tr_status, tr_ft, tr_stats)
     if not traced:
@@ -326,6 +378,33 @@ def simulate(
     if status != Status.SUCCESS and throw:
         raise SolverError(msg, result)
     return result
+
+
+_POST_POOL = None
+
+
+def _compile_post(system, n: int, z0):
+    """Start compiling the outputs' post-processing for ``n`` outputs in a second thread (on the
+    device this call runs on); returns a Future of the compiled executable."""
+    global _POST_POOL
+    from concurrent.futures import ThreadPoolExecutor
+
+    from .result import post_batch
+
+    if _POST_POOL is None:
+        _POST_POOL = ThreadPoolExecutor(1, thread_name_prefix="proleg-outputs")
+    dev = jax.config.jax_default_device
+    f64 = jnp.float64
+    shapes = (jax.ShapeDtypeStruct((n, system.nq), f64), jax.ShapeDtypeStruct((n, system.nq), f64),
+              jax.ShapeDtypeStruct((n,), f64), jax.ShapeDtypeStruct((n, z0.shape[0]), z0.dtype))
+
+    def compile_():
+        if dev is None:
+            return post_batch.lower(system, *shapes).compile()
+        with jax.default_device(dev):
+            return post_batch.lower(system, *shapes).compile()
+
+    return _POST_POOL.submit(compile_)
 
 
 def _warn_unstable_servos(system, q, v, t0, z0):

@@ -12,14 +12,15 @@ batched dots that YNNPACK runs lane by lane (1–2 ms per fusion for 1,000 lanes
 loops are ~3× faster per lane-step on the bench model (bench/vmap_batch.py). Batches run
 concurrently, up to one fewer than the cores (``workers``, :func:`max_concurrent_batches`: a
 batched LAPACK call needs a free thread of XLA's pool), each factoring its Newton matrices
-lane by lane (solvers/galpha.py ``StepOptions.lu_per_lane``). Each variant steps through its output times on its own
-(``simulate(free_running=True)``), but the batch's loop runs until the slowest variant is done:
+lane by lane (``GeneralizedAlpha(lu_per_lane=True)``). Each variant steps through its output times on its own
+(``RunOptions(free_running=True)``), but the batch's loop runs until the slowest variant is done:
 variants with very different step counts waste work, so group them.
 On a GPU the same call runs every variant in parallel (bench/gpu_batch.py).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import jax
@@ -30,7 +31,8 @@ from ..assembly.system import System
 from ..errors import ModelError, Status
 from .checks import check_simulate, check_sweep_values
 from .result import Result
-from .simulate import simulate
+from ..solvers.galpha import GeneralizedAlpha
+from .simulate import RunOptions, simulate, simulate_kwargs
 
 # Default largest batch on the CPU: per lane-step, 1,000 lanes cost 18 µs, 500 13 µs, and two
 # workers ran 1,000 variants 15 % faster in batches of 250 than of 500 (bench/vmap_batch.py).
@@ -217,11 +219,13 @@ def sweep(
     concurrent = threads > 1
     meta = {}
 
+    run_kw = simulate_kwargs(simulate_kw)
+    integ = run_kw.get("integrator") or GeneralizedAlpha()
+    run_kw["integrator"] = dataclasses.replace(integ, lu_per_lane=concurrent)
+    run_kw["run"] = dataclasses.replace(run_kw.get("run") or RunOptions(), chunk=1_000_000, free_running=True)
+
     def one(vals):
-        res = simulate(
-            apply(system, dict(zip(names, vals))), t_end, dt_output, progress=False, throw=False,
-            chunk=1_000_000, free_running=True, lu_per_lane=concurrent, **simulate_kw,
-        )
+        res = simulate(apply(system, dict(zip(names, vals))), t_end, dt_output, progress=False, throw=False, **run_kw)
         meta["t"], meta["integrator"], meta["coordinates"] = res.t, res.integrator, res.coordinates
         return (res.q, res.v, res.w, res.z, *res.traced_status)
 

@@ -175,3 +175,52 @@ def constraint_values(ct: ConstraintTopology, screw_lead, mr, mR, p, t, coupler=
         parts.append(jnp.where(ct.cp_rot, _wrap(d), d))
     parts.append(jnp.sum(p * p, -1) - 1.0)
     return jnp.concatenate(parts)
+
+
+def _frames(oh, mk):
+    return (oh @ mk.R.reshape(-1, 9)).reshape(-1, 3, 3)
+
+
+def joint_coordinate(oh_i, oh_j, rot, mk):
+    """Joint coordinate (angle or translation of I relative to J) and its rate; vectorised."""
+    RI, RJ = _frames(oh_i, mk), _frames(oh_j, mk)
+    rI, rJ = oh_i @ mk.r, oh_j @ mk.r
+    wI, wJ = oh_i @ mk.w, oh_j @ mk.w
+    zJ = RJ[:, :, 2]
+    th = joint_angle(RI, RJ)
+    th_d = jnp.sum(zJ * (wI - wJ), -1)
+    x = joint_translation(rI, rJ, RJ)
+    delta = rI - rJ
+    x_d = jnp.sum(zJ * (oh_i @ mk.v - oh_j @ mk.v), -1) + jnp.sum(jnp.cross(wJ, zJ) * delta, -1)
+    return jnp.where(rot, th, x), jnp.where(rot, th_d, x_d), zJ, delta
+
+
+def _joint_rows(model, marker_index, owners):
+    """The constraint rows of ``owners`` (joints, motions, couplers): one dict per equation, in
+    model order; also the screw leads and the coupler (ratio, offset) pairs."""
+    rows = []
+    screw_leads = []
+    couplers = []
+    for oi, j in enumerate(owners):
+        mi, mj = marker_index[id(j.marker_i)], marker_index[id(j.marker_j)]
+        for eq in j.equations:
+            kind = eq[0]
+            if kind == "sph":
+                rows.append(dict(kind="sph", mi=mi, mj=mj, args=(eq[1],), owner=oi, label=f"d{'xyz'[eq[1]]}"))
+            elif kind == "dot1":
+                rows.append(
+                    dict(kind="dot1", mi=mi, mj=mj, args=(eq[1], eq[2]), owner=oi, label=f"{'xyz'[eq[1]]}_I.{'xyz'[eq[2]]}_J")
+                )
+            elif kind == "dot2":
+                rows.append(dict(kind="dot2", mi=mi, mj=mj, args=(eq[1],), owner=oi, label=f"{'xyz'[eq[1]]}_I.d"))
+            elif kind == "screw":
+                rows.append(dict(kind="screw", mi=mi, mj=mj, args=(len(screw_leads),), owner=oi, label="screw"))
+                screw_leads.append(j.pitch)
+            elif kind == "drv":
+                rows.append(dict(kind="drv", mi=mi, mj=mj, args=(eq[1], eq[2]), owner=oi, label=eq[3]))
+            elif kind == "cpl":
+                j2 = j.joint_2
+                mi2, mj2 = marker_index[id(j2.marker_i)], marker_index[id(j2.marker_j)]
+                rows.append(dict(kind="cpl", mi=mi, mj=mj, args=(mi2, mj2, j.dof == "rotation", len(couplers)), owner=oi, label="q1 - r q2"))
+                couplers.append((j.ratio, j.offset))
+    return rows, np.array(screw_leads, float), np.array(couplers, float).reshape(-1, 2)

@@ -13,26 +13,9 @@ import numpy as np
 from ..contact_law import friction_vector, normal_force
 from ..errors import ModelError
 from ..fn import _safe_pow
-from .constraints import _oh, joint_angle, joint_translation
+from .constraints import _frames, _oh, joint_coordinate
+from .kinematics import StateView, kinematics
 from .elements import AbstractGroup, TwoMarkerGroup, pair_loads
-
-
-def _frames(oh, mk):
-    return (oh @ mk.R.reshape(-1, 9)).reshape(-1, 3, 3)
-
-
-def joint_coordinate(oh_i, oh_j, rot, mk):
-    """Joint coordinate (angle or translation of I relative to J) and its rate; vectorised."""
-    RI, RJ = _frames(oh_i, mk), _frames(oh_j, mk)
-    rI, rJ = oh_i @ mk.r, oh_j @ mk.r
-    wI, wJ = oh_i @ mk.w, oh_j @ mk.w
-    zJ = RJ[:, :, 2]
-    th = joint_angle(RI, RJ)
-    th_d = jnp.sum(zJ * (wI - wJ), -1)
-    x = joint_translation(rI, rJ, RJ)
-    delta = rI - rJ
-    x_d = jnp.sum(zJ * (oh_i @ mk.v - oh_j @ mk.v), -1) + jnp.sum(jnp.cross(wJ, zJ) * delta, -1)
-    return jnp.where(rot, th, x), jnp.where(rot, th_d, x_d), zJ, delta
 
 
 # ---------------------------------------------------------------------------------------------
@@ -159,8 +142,6 @@ class ControllerGroup(AbstractGroup):
         return jnp.asarray(np.concatenate(parts)) if parts else jnp.zeros(0)
 
     def sample(self, P, t, q, v, z, system, first=False):
-        from .system import StateView, kinematics
-
         bk, mk = kinematics(system, q, v)
         view = StateView(system.topo, bk, mk, t, z, system.params)
         pids = [e for e in self.elements if e.kind == "pid"]

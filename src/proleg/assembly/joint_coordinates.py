@@ -54,7 +54,8 @@ from ..spatial.rotation import A_of_p, G_of_p, mm, mv, p_of_A
 from .constraints import ROW_KINDS, build_constraint_topology, constraint_values
 from .kinematics import BodyKin, marker_kin
 from .sparsity import Coloring
-from .system import System, _joint_rows, body_loads, element_power
+from .constraints import _joint_rows
+from .system import System, body_loads, element_power
 
 TREE_KINDS = ("revolute", "prismatic", "cylindrical", "fixed")
 ROT, TRANS, FLOAT_R, FLOAT_P = 0, 1, 2, 3

@@ -11,7 +11,7 @@ import numpy as np
 from ..contact_law import normal_force
 from ..fn import _safe_pow
 from .elements import AbstractGroup, TwoMarkerGroup, pair_loads
-from .extensions import joint_coordinate
+from .constraints import joint_coordinate
 
 _BIG = 1e30  # an absent limit (finite, so no inf · 0 in derivatives)
 

@@ -15,10 +15,10 @@ console = Console(stderr=True)
 
 # name -> (module, function, description); scenarios write into results/<name>/ by default
 SCENARIOS = {
-    "hyq-drop": ("proleg.robots.hyq_tests", "run_drop", "HyQ leg drop test: rigid vs 4 vs 8 bushings, HTML report (main job)"),
+    "hyq-drop": ("proleg.robots.hyq_report", "run_drop", "HyQ leg drop test: rigid vs 4 vs 8 bushings, HTML report (main job)"),
     "hyq-stand": ("proleg.robots.hyq", "run_stand", "Whole HyQ (URDF) dropped 10 cm onto four feet: GRF vs weight share, torques vs statics, 3D animation"),
-    "hyq-static": ("proleg.robots.hyq_tests", "run_static", "HyQ leg static test, payload 0/3/7 kg"),
-    "hyq-quasistatic": ("proleg.robots.hyq_tests", "run_quasistatic", "HyQ leg quasi-static cycles: force-stroke loops"),
+    "hyq-static": ("proleg.robots.hyq_report", "run_static", "HyQ leg static test, payload 0/3/7 kg"),
+    "hyq-quasistatic": ("proleg.robots.hyq_report", "run_quasistatic", "HyQ leg quasi-static cycles: force-stroke loops"),
     "scout2-bound": ("proleg.robots.scout2_report", "run_bound", "Scout II bounding: Model I vs Model II, low speed, gait metrics, HTML report"),
     "hyq-bushing-study": ("proleg.robots.hyq_study", "run_bushing_study", "HyQ 8-bushing drop vs pin stiffness 1e6-1e10 N/m: proleg.study store + HTML report"),
     "flegx-jump": ("proleg.robots.flegx_report", "run_jump", "FLEGX countermovement jump: rigid vs PRBM vs CB link (seed 002 Fig. 3)"),
@@ -134,7 +134,7 @@ def simulate(
         kw["atol"] = opts["atol"]
     system = pl.assemble(mdl)
     try:
-        res = pl.simulate(system, t_end=t_end, dt_output=dt, progress=True, **kw)
+        res = pl.simulate(system, t_end=t_end, dt_output=dt, progress=True, integrator=pl.GeneralizedAlpha(**kw))
     except SolverError as exc:
         if exc.result is not None and len(exc.result.t) > 1:
             exc.result.to_parquet(out)

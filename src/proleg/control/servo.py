@@ -72,7 +72,7 @@ def servo_stability(system: System, q=None, v=None, t=0.0, z=None) -> list[dict]
     if not any(_checked(g, pids)):
         return []
     if q is None or v is None or z is None:
-        from ..analyses.simulate import consistent_state, initial_z
+        from ..solvers.initial import consistent_state, initial_z
 
         z = initial_z(system) if z is None else z
         q0, v0, _, _, z = consistent_state(system, q, v, t, z)

@@ -111,7 +111,7 @@ def fit(
     log_scale : fit log(p) for positive parameters (True for all, or a list of names)
     weights : dict signal → 1/σ scale (default 1 / RMS of that measured signal)
     """
-    from ..analyses.simulate import simulate
+    from ..analyses.simulate import simulate, simulate_kwargs
 
     times = np.asarray(times, float)
     if times.ndim != 1 or len(times) < 2 or np.any(np.diff(times) <= 0):
@@ -141,7 +141,7 @@ def fit(
             lo[k] = np.log(a) if logs[k] and a > 0 else (a if not logs[k] else -np.inf)
             hi[k] = np.log(b) if logs[k] else b
     skw = dict(t_end=float(times[-1]), output_times=times, progress=False)
-    skw.update(simulate_kw or {})
+    skw = simulate_kwargs({**skw, **(simulate_kw or {})})
     meas_j = [jnp.asarray(y) for y in meas]
 
     def residual(th):
@@ -189,10 +189,10 @@ def plot_fit(fit_result: FitResult, times, measured: dict, simulate_kw: dict | N
     """Overlay of measured and fitted signals (matplotlib Figure)."""
     from matplotlib.figure import Figure
 
-    from ..analyses.simulate import simulate
+    from ..analyses.simulate import simulate, simulate_kwargs
 
     times = np.asarray(times, float)
-    res = simulate(fit_result.system, t_end=float(times[-1]), output_times=times, progress=False, **(simulate_kw or {}))
+    res = simulate(fit_result.system, t_end=float(times[-1]), output_times=times, progress=False, **simulate_kwargs(simulate_kw or {}))
     fig = Figure(figsize=(7, 2.4 * len(measured)))
     for k, (key, y) in enumerate(measured.items()):
         ax = fig.add_subplot(len(measured), 1, k + 1)

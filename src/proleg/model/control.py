@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ModelError
-from ._validate import finite_scalar
+from ._validate import finite_array, finite_scalar
 from .parts import Marker
 
 # 20-point Gauss-Legendre rule on [0, 1] for velocity/acceleration-level motions.
@@ -24,9 +24,13 @@ class Motion:
     forms are integrated from the modelled pose (20-point Gauss-Legendre, exact for polynomials
     up to degree 39), with ``initial_velocity`` for the acceleration form. The driving force or
     torque is reported by ``result.motion(name).effort``.
+
+    ``breakpoints``: times [s] where the law or its first or second derivative jumps (the ends
+    of a :func:`proleg.fn.step` transition, the corners of a piecewise law). The integrator
+    steps to each exactly instead of interpolating across it (solvers/driver.py).
     """
 
-    def __init__(self, name, joint, displacement=None, velocity=None, acceleration=None, dof=None, initial_velocity=0.0):
+    def __init__(self, name, joint, displacement=None, velocity=None, acceleration=None, dof=None, initial_velocity=0.0, breakpoints=()):
         self.name = name
         self.joint_ref = joint
         given = [x is not None for x in (displacement, velocity, acceleration)]
@@ -38,6 +42,7 @@ class Motion:
         self.displacement, self.velocity, self.acceleration = displacement, velocity, acceleration
         self.dof = dof
         self.initial_velocity = finite_scalar(f"Motion '{name}' initial_velocity", initial_velocity)
+        self.breakpoints = tuple(float(b) for b in finite_array(f"Motion '{name}' breakpoints [s]", breakpoints).ravel())
         self.marker_i = self.marker_j = None
         self.equations = []
 

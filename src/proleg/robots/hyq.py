@@ -147,7 +147,7 @@ def stand(t_end: float = 1.5, dt_output: float = 2e-3, progress: bool = False, s
     import pandas as pd
 
     from ..analyses.simulate import simulate
-    from ..assembly.system import assemble
+    from ..assembly.assemble import assemble
 
     model = hyq(**kw)
     res = simulate(assemble(model), t_end=t_end, dt_output=dt_output, progress=progress, **{"jacobian_reuse": True, **(simulate_kw or {})})

@@ -12,6 +12,7 @@ import pandas as pd
 
 from ..report import Report
 from . import hyq_data as D
+from . import hyq_tests as T
 from .hyq_leg import BUSHING_PINS, PIN_NAMES
 
 MODELS = ("rigid", "bushings4", "bushings8")
@@ -271,8 +272,8 @@ def _drop_job(job: dict) -> dict:
     worker processes can run it; returns picklable data only (tables, HyQInfo, run statistics,
     and the 3D animation's scene: JSON data at ``ANIMATION_FRAMES`` frames)."""
     from ..report.animate import scene_from_result
-    from .hyq_tests import bench_variant, drop_test, instrument, variant_system
 
+    bench_variant, drop_test, instrument, variant_system = T.bench_variant, T.drop_test, T.instrument, T.variant_system
     t0 = time.perf_counter()
     d = drop_test(joints=job["joints"], gain=job["gain"], drop_height=job["drop_height"], t_end=job["t_end"], progress=job["progress"])
     st = d.result.stats
@@ -552,3 +553,42 @@ def loops_figure(df: pd.DataFrame):
         ax.set_ylabel(f"{side} force [N]")
         ax.legend(fontsize="small", frameon=False, loc="upper right")
     return fig
+
+
+# ------------------------------------------------------------------------------------------
+# scenario entry points
+# ------------------------------------------------------------------------------------------
+def run_static(out_dir="results/hyq-static", *, progress: bool = False) -> Path:
+    """Static test for the rigid and 8-bushing models; writes ``static.parquet`` (table),
+    ``static.png`` and returns the Parquet path."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    frames = []
+    for joints in ("rigid", "bushings8"):
+        tab = T.static_test(joints=joints).tables["static"]
+        tab.insert(0, "model", joints)
+        frames.append(tab)
+    table = pd.concat(frames, ignore_index=True)
+    path = out / "static.parquet"
+    table.to_parquet(path, index=False)
+    static_figure(table).savefig(out / "static.png", dpi=120, bbox_inches="tight")
+    return path
+
+
+def run_quasistatic(out_dir="results/hyq-quasistatic", *, progress: bool = False) -> Path:
+    """Quasi-static test of the rigid model; writes ``quasistatic.parquet`` (channels),
+    ``identification.csv`` and ``loops.png``; returns the Parquet path."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    qs = T.quasistatic_test(progress=progress)
+    path = out / "quasistatic.parquet"
+    qs.tables["channels"].to_parquet(path, index=False)
+    qs.tables["identification"].to_csv(out / "identification.csv", index=False)
+    loops_figure(qs.tables["channels"]).savefig(out / "loops.png", dpi=120, bbox_inches="tight")
+    return path
+
+
+def run_drop(out_dir="results/hyq-drop", progress: bool = True, *, t_end: float = 1.2, bench: bool = True) -> Path:
+    """The main job: drop test of the rigid, 4-bushing and 8-bushing models (+ synthetic bench
+    data), Parquet results, figures and the self-contained HTML report; returns the report path."""
+    return drop_report(out_dir, progress=progress, t_end=t_end, bench=bench)

@@ -66,7 +66,7 @@ def bushing_study(
     ``reference``: optional rigid-leg record (a table with ``hip force [N]`` and ``knee force
     [N]`` at the study's output times, 1 ms from 0): adds the outputs ``rms_hip_vs_rigid`` and
     ``rms_knee_vs_rigid`` [N]. ``system``: the assembled 8-bushing leg, if already built."""
-    from ..assembly.system import assemble
+    from ..assembly.assemble import assemble
     from .hyq_leg import hyq_leg
 
     if system is None:

@@ -34,9 +34,11 @@ import pandas as pd
 
 from ..analyses.result import Result
 from ..analyses.simulate import simulate
-from ..assembly.system import System, assemble
+from ..assembly.assemble import assemble
+from ..assembly.system import System
 from ..drives.dcmotor import specific_resistance
 from ..errors import ModelError
+from ..solvers.galpha import GeneralizedAlpha
 from .scout2 import LEGS, scout2
 
 __all__ = ["BoundRun", "scout2_bound", "stride_table", "gait_metrics", "detect_period", "energy_balance", "pitch_deg"]
@@ -293,7 +295,7 @@ def scout2_bound(model: str = "I", t_end: float = 10.0, *, per: str = "physical"
         system = system.with_params(q_init=q0, v_init=v0)
     if variables:
         system = system.with_params(variables)
-    res = simulate(system, t_end=t_end, dt_output=dt_output, rtol=rtol, throw=False, progress=progress)
+    res = simulate(system, t_end=t_end, dt_output=dt_output, integrator=GeneralizedAlpha(rtol=rtol), throw=False, progress=progress)
     info = mdl.scout2
     st = stride_table(res, info) if len(res.t) > 2 else pd.DataFrame()
     met = gait_metrics(res, st, system, transient=transient)

@@ -14,7 +14,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..assembly.system import System, assemble
+from ..assembly.assemble import assemble
+from ..assembly.system import System
 from ..units import deg
 from . import scout2_data as D
 from .scout2 import LEG_STATES, LEGS, scout2

@@ -2,20 +2,28 @@
 
 The loop is a ``lax.while_loop`` that chooses between accept and reject (note §4, §7): the
 step is a pure function of (state, h), so a rejection simply retries from the same state with
-a smaller h. Steps are clipped to output times and to controller sample times, so outputs are
-exact solver states, and controllers see zero-order-held inputs.
+a smaller h.
+
+Steps are chosen by accuracy and by the discontinuities the model declares, never by the
+output times: a step is clipped only to controller sample times (so controllers see
+zero-order-held inputs and their jumps are stepped to, not interpolated across), to motion-law
+breakpoints (``Motion(breakpoints=...)``), and to the end of the run. Outputs come from the
+dense output of the accepted step that contains them (:func:`dense_output`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import partial
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
 
 from ..errors import Status
-from .galpha import StepOptions, StepState, step
+from ..assembly.coordinates import Absolute
+from .galpha import StepOptions, StepState, lu_apply, step
+from .initial import kkt_accelerations, sample_controllers
 
 
 @dataclass(frozen=True)
@@ -26,14 +34,7 @@ class DriverOptions:
     fixed_step: float | None = None
     max_steps: int = 2_000_000  # per chunk
     sample_period: float | None = None  # controller clock [s]
-
-
-def sample_controllers(system, t, q, v, z, first=False):
-    """Controller sample: z ← update(t, q, v, z) for every sampled element."""
-    for g in system.topo.extensions:
-        if hasattr(g, "sample"):
-            z = g.sample(system.params, t, q, v, z, system, first)
-    return z
+    breakpoints: tuple = ()  # times [s] where a motion law's derivatives jump (stepped to exactly)
 
 
 # Compiled once per model (the System's topology is static): the first sample of a run, or the
@@ -44,52 +45,145 @@ sample_controllers_first = jax.jit(partial(sample_controllers, first=True))
 def _sample_update(dyn, st: StepState):
     """A controller sample. The held commands jump, so the accelerations are re-initialised from
     the KKT system at the new commands (like a restart), instead of being smeared over a step."""
-    from .initial import kkt_accelerations
+    return _restart(dyn, st, sample_controllers(dyn.system, st.t, *dyn.absolute(st.q, st.v), st.z))
 
-    z = sample_controllers(dyn.system, st.t, *dyn.absolute(st.q, st.v), st.z)
-    qdd, lam = kkt_accelerations(dyn, st.q, st.v, st.t, z)
+
+def _restart(dyn, st: StepState, z):
+    """Re-initialise the accelerations, multipliers and HHT history from the KKT system at
+    (t, q, v, z): after a controller sample or at a motion-law breakpoint, where the
+    accelerations jump (the a_n history would otherwise ring, decaying as ρ∞ⁿ). The
+    accelerations are those just after t (the right limit of a law whose second derivative
+    jumps at t: evaluated at t + 1e-12·max(1, |t|))."""
+    t_right = st.t + 1e-12 * jnp.maximum(1.0, jnp.abs(st.t))
+    qdd, lam = kkt_accelerations(dyn, st.q, st.v, t_right, z)
     _, vjp = jax.vjp(lambda qq: dyn.constraints(qq, st.t), st.q)
     g = vjp(lam)[0] - dyn.generalized_forces(st.q, st.v, st.t, z)
     return st._replace(z=z, qdd=qdd, a=qdd, lam=lam, g=g, pw=dyn.power_terms(st.q, st.v, st.t, z))
 
 
+class Knot(NamedTuple):
+    """One end of an accepted step, what the dense output needs: t, q, v, q̈ (the accelerations
+    that hold on this step: before a controller sample at its right end, after one at its left),
+    w (integrated energies) and z (controller state; at the right end, after a sample there)."""
+
+    t: jnp.ndarray
+    q: jnp.ndarray
+    v: jnp.ndarray
+    qdd: jnp.ndarray
+    w: jnp.ndarray
+    z: jnp.ndarray
+
+
+def knot(st: StepState, z=None) -> Knot:
+    return Knot(st.t, st.q, st.v, st.qdd, st.w, st.z if z is None else z)
+
+
+def dense_output(dyn, a: Knot, b: Knot, t, fac=None):
+    """(q, v, w, z) at ``t`` in [a.t, b.t] from the accepted step a → b.
+
+    Positions: the cubic Hermite interpolant of q with the end slopes v; velocities: the cubic
+    Hermite interpolant of v with the end slopes q̈ (the accelerations of the step's own
+    equations of motion at both ends). Each is exact for cubics, so with exact end values its
+    error is h⁴/384·max|q⁗| (positions) and h⁴/384·max|v⁗| (velocities), O(h⁴), one order above
+    the method's local error O(h³) (note §4): the interpolation adds less than the step's
+    tolerance. The interpolated Euler parameters are normalised (p/|p|, ṗ − p pᵀṗ), so each
+    output is a unit quaternion as the solver's own states are. w (energies) is linear — its
+    integrand is the trapezoidal rule's —, z (controller state) is held: piecewise constant
+    between samples, the post-sample value exactly at a sample time. At t = b.t the output is
+    the solver's state b exactly.
+
+    ``fac``: the LU factors of the step's Newton matrix [[J, Φ_qᵀ], [Φ_q, 0]]. The interpolated
+    positions are then moved back onto the constraints by one projection with them,
+    Δq = −J⁻¹Φ_qᵀ(Φ_q J⁻¹Φ_qᵀ)⁻¹ Φ(q, t) (two triangular solves and one evaluation of Φ; no
+    new matrix): the Hermite polynomial leaves the constraint manifold by its own error (a
+    few 1e-9 m at tolerance 1e-9 on tests/test_core_pendulum.py's 90° swing), the projection
+    brings |Φ| down by the factor O(h) between the matrix's Φ_q and the one at the output
+    (there to 7e-13).
+    """
+    h = b.t - a.t
+    s = jnp.clip(jnp.where(h > 0, (t - a.t) / jnp.where(h > 0, h, 1.0), 1.0), 0.0, 1.0)
+    at_end = s >= 1.0 - 1e-12
+    s2, s3 = s * s, s * s * s
+    h00, h10, h01, h11 = 2 * s3 - 3 * s2 + 1, s3 - 2 * s2 + s, -2 * s3 + 3 * s2, s3 - s2
+    q = h00 * a.q + h10 * h * a.v + h01 * b.q + h11 * h * b.v
+    v = h00 * a.v + h10 * h * a.qdd + h01 * b.v + h11 * h * b.qdd
+    if getattr(dyn, "kind", "") == "absolute":
+        q, v = _normalize_parameters(q, v, dyn.system.topo.nbody)
+    if fac is not None:
+        nq = q.shape[0]
+        phi = Absolute.of(dyn).constraints(q, t)
+        dx = lu_apply(fac, jnp.concatenate([jnp.zeros(nq, q.dtype), -phi]))
+        q = q + jnp.where(jnp.all(jnp.isfinite(dx)), dx[:nq], 0.0)
+    q = jnp.where(at_end, b.q, q)
+    v = jnp.where(at_end, b.v, v)
+    w = a.w + s * (b.w - a.w)
+    z = jnp.where(at_end, b.z, a.z)
+    return q, v, w, z
+
+
+def _normalize_parameters(q, v, nb):
+    if nb == 0:
+        return q, v
+    qb, vb = q[: 7 * nb].reshape(nb, 7), v[: 7 * nb].reshape(nb, 7)
+    p = qb[:, 3:] / jnp.linalg.norm(qb[:, 3:], axis=1, keepdims=True)
+    pd = vb[:, 3:] - p * jnp.sum(p * vb[:, 3:], axis=1, keepdims=True)
+    qb = jnp.concatenate([qb[:, :3], p], 1).reshape(-1)
+    vb = jnp.concatenate([vb[:, :3], pd], 1).reshape(-1)
+    return jnp.concatenate([qb, q[7 * nb :]]), jnp.concatenate([vb, v[7 * nb :]])
+
+
 @partial(jax.jit, static_argnums=(1, 2, 7))
-def advance(dyn, integrator, dopts: DriverOptions, st: StepState, h, out_times, n_valid, free_running=False):
+def advance(dyn, integrator, dopts: DriverOptions, st: StepState, h, out_times, n_valid, free_running=False, t_stop=None, seg=None):
     """Integrate from ``st`` through ``out_times[:n_valid]``; record q, v, w, z at each.
 
-    ``dyn``: the coordinate set the state is in (assembly/coordinates.py).
+    ``dyn``: the coordinate set the state is in (assembly/coordinates.py). ``t_stop``: the end
+    of the run (steps never go past it; default: the last output time). ``seg``: the last
+    accepted step (Knot, Knot) of the previous chunk, whose dense output serves the first
+    outputs of this chunk that it already passed (default: none, ``st`` at both ends).
 
     A ``lax.scan`` over the output times with, inside, a ``lax.while_loop`` of step attempts
-    up to the next output time: outputs are scan results (no dynamic buffer updates), and
-    under ``jax.vmap`` only the small step state is carried per lane by the inner loop.
+    until the accepted step contains the output time, which is then read from its dense output
+    (:func:`dense_output`): outputs are scan results (no dynamic buffer updates), and under
+    ``jax.vmap`` only the small step state is carried per lane by the inner loop. Steps are
+    never clipped to output times, only to the events of ``dopts`` and to ``t_stop``.
 
     ``free_running``: one ``lax.while_loop`` of step attempts over all the output times instead,
-    writing each output into its buffer row when reached. Under ``jax.vmap`` the lanes then
-    do not wait for each other at every output time (the loop runs as many attempts as the
-    slowest lane needs in all, not the sum over outputs of the slowest lane per interval, ~2×
-    fewer on bench/vmap_batch.py); one lane's work is the same. ``sweep`` uses it.
+    writing the outputs each accepted step passed into their buffer rows. Under ``jax.vmap`` the
+    lanes then do not wait for each other at every output time (the loop runs as many attempts
+    as the slowest lane needs in all, not the sum over outputs of the slowest lane per interval,
+    ~2× fewer on bench/vmap_batch.py); one lane's work is the same. ``sweep`` uses it.
 
-    Returns (state, h, number of outputs reached, buffers, stats, status, fail_time, worst_row).
+    Returns (state, h, number of outputs reached, buffers, stats, status, fail_time, worst_row,
+    last accepted step).
     """
     K = out_times.shape[0]
     fixed = dopts.fixed_step is not None
     Ts = dopts.sample_period
+    bps = jnp.asarray(sorted(dopts.breakpoints), jnp.float64) if dopts.breakpoints else None
     eps_t = 1e-12
+    t_stop = out_times[jnp.maximum(n_valid - 1, 0)] if t_stop is None else jnp.asarray(t_stop, jnp.float64)
+    if seg is None:
+        seg = (knot(st), knot(st))
 
     def reached(t, te):
         return t >= te - eps_t * jnp.maximum(1.0, jnp.abs(te))
 
-    def next_event(t, te):
+    def next_event(t):
+        te = t_stop
         if Ts is not None:
             ts = (jnp.floor(t / Ts + 1e-9) + 1.0) * Ts
             te = jnp.minimum(te, ts)
+        if bps is not None:
+            after = bps > t + eps_t * jnp.maximum(1.0, jnp.abs(t))
+            te = jnp.minimum(te, jnp.min(jnp.where(after, bps, jnp.inf)))
         return te
 
-    def attempt(te, c):
-        st, h, (ns, nr, nn, nj), status, ft, worst, rejected = c
-        rem = next_event(st.t, te) - st.t
+    def attempt(c):
+        st, h, (ns, nr, nn, nj), status, ft, worst, rejected, seg = c
+        rem = next_event(st.t) - st.t
         h_des = jnp.asarray(dopts.fixed_step) if fixed else h
-        h_take = jnp.where(h_des >= rem * (1 - 1e-9), rem, jnp.where(2 * h_des > rem, 0.5 * rem, h_des))
+        # Land on the event when within 1e-6·h of it (fixed steps accumulate round-off in t).
+        h_take = jnp.where(h_des * (1 + 1e-6) >= rem, rem, jnp.where(2 * h_des > rem, 0.5 * rem, h_des))
         clipped = h_take < h_des
         new, err, iters, conv, wrow, stale_fail, built = step(dyn, integrator, st, h_take, dopts.step)
         if fixed:
@@ -115,6 +209,12 @@ def advance(dyn, integrator, dopts: DriverOptions, st: StepState, h, out_times, 
         if Ts is not None:
             at_tick = accept & (jnp.abs(st2.t / Ts - jnp.round(st2.t / Ts)) < 1e-9 * jnp.maximum(1.0, st2.t / Ts))
             st2 = jax.lax.cond(at_tick, lambda s: _sample_update(dyn, s), lambda s: s, st2)
+        if bps is not None:
+            at_bp = accept & jnp.any(jnp.abs(st2.t - bps) <= 1e-9 * jnp.maximum(1.0, jnp.abs(bps)))
+            st2 = jax.lax.cond(at_bp, lambda s: _restart(dyn, s, s.z), lambda s: s, st2)
+        # The accepted step for the dense output: its accelerations are those before a sample
+        # at its end; z after it (the output at a sample time shows the new command).
+        seg = jax.tree_util.tree_map(lambda n, o: jnp.where(accept, n, o), (knot(st), knot(new, st2.z)), seg)
         too_small = (~accept) & (h_next < dopts.dt_min) if not fixed else ~accept & ~stale_fail
         new_status = jnp.where(
             too_small, jnp.where(conv, int(Status.STEP_TOO_SMALL), int(Status.NEWTON_FAILED)), status
@@ -123,7 +223,7 @@ def advance(dyn, integrator, dopts: DriverOptions, st: StepState, h, out_times, 
         ft = jnp.where(too_small, st.t + h_take, ft)
         worst = jnp.where(too_small, wrow, worst)
         stats = (ns + accept.astype(ns.dtype), nr + (~accept).astype(nr.dtype), nn + iters, nj + built.astype(nj.dtype))
-        return st2, jnp.maximum(h_next, dopts.dt_min * 0.5), stats, new_status, ft, worst, ~accept
+        return st2, jnp.maximum(h_next, dopts.dt_min * 0.5), stats, new_status, ft, worst, ~accept, seg
 
     def reach(carry, xs):
         te, valid = xs
@@ -133,14 +233,28 @@ def advance(dyn, integrator, dopts: DriverOptions, st: StepState, h, out_times, 
             st, status = c[0], c[3]
             return valid & (status == 0) & ~reached(st.t, te)
 
-        c = jax.lax.while_loop(cond, partial(attempt, te), c)
-        st, status = c[0], c[3]
+        c = jax.lax.while_loop(cond, attempt, c)
+        status = c[3]
         k = k + (valid & (status == 0)).astype(k.dtype)
-        return (c, k), (st.q, st.v, st.w, st.z)
+        return (c, k), dense_output(dyn, *c[7], te, c[0].Jfac)
 
     z0 = jnp.array(0)
-    init = (st, jnp.asarray(h, jnp.float64), (z0, z0, z0, z0), jnp.array(0), st.t * 0.0, z0, jnp.array(False))
+    init = (st, jnp.asarray(h, jnp.float64), (z0, z0, z0, z0), jnp.array(0), st.t * 0.0, z0, jnp.array(False), seg)
     if free_running:
+
+        def write(c):
+            inner, k, bufs = c
+            te = out_times[k]
+            out = dense_output(dyn, *inner[7], te, inner[0].Jfac)
+            bufs = tuple(b.at[k].set(x) for b, x in zip(bufs, out))
+            return inner, k + 1, bufs
+
+        def write_reached(c):
+            def more(c):
+                inner, k, _ = c
+                return (k < n_valid) & (inner[3] == 0) & reached(inner[0].t, out_times[jnp.minimum(k, K - 1)])
+
+            return jax.lax.while_loop(more, write, c)
 
         def cond(c):
             inner, k, _ = c
@@ -148,16 +262,12 @@ def advance(dyn, integrator, dopts: DriverOptions, st: StepState, h, out_times, 
 
         def body(c):
             inner, k, bufs = c
-            te = out_times[k]
-            inner = attempt(te, inner)
-            s = inner[0]
-            hit = (inner[3] == 0) & reached(s.t, te)
-            bufs = tuple(b.at[k].set(jnp.where(hit, x, b[k])) for b, x in zip(bufs, (s.q, s.v, s.w, s.z)))
-            return inner, k + hit.astype(k.dtype), bufs
+            return write_reached((attempt(inner), k, bufs))
 
         bufs0 = tuple(jnp.full((K,) + x.shape, jnp.nan, x.dtype) for x in (st.q, st.v, st.w, st.z))
-        (st, h, stats, status, ft, worst, _), k, bufs = jax.lax.while_loop(cond, body, (init, z0, bufs0))
-        return st, h, k, bufs, stats, status, ft, worst
+        c = write_reached((init, z0, bufs0))
+        (st, h, stats, status, ft, worst, _, seg), k, bufs = jax.lax.while_loop(cond, body, c)
+        return st, h, k, bufs, stats, status, ft, worst, seg
     valid = jnp.arange(K) < n_valid
-    ((st, h, stats, status, ft, worst, _), k), bufs = jax.lax.scan(reach, (init, z0), (out_times, valid))
-    return st, h, k, bufs, stats, status, ft, worst
+    ((st, h, stats, status, ft, worst, _, seg), k), bufs = jax.lax.scan(reach, (init, z0), (out_times, valid))
+    return st, h, k, bufs, stats, status, ft, worst, seg

@@ -24,7 +24,7 @@ HHT: ``alpha`` in [−1/3, 0], ρ∞ = (1 + α)/(1 − α); M is evaluated at q_
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import NamedTuple
 
 import jax
@@ -54,13 +54,77 @@ class StepState(NamedTuple):
     jac_pen: jnp.ndarray  # int: current hold length (doubles on each failed reuse, up to 64)
 
 
+@dataclass(frozen=True, kw_only=True)
+class AbstractIntegrator:
+    """Options every integrator carries (Diffrax style: the solver object holds its settings).
+
+    Parameters
+    ----------
+    rtol, atol : relative and absolute local error tolerances; atol in [m] for translations
+        (and the modal coordinates of flexible bodies). Defaults 1e-6, 1e-7.
+    atol_p : absolute tolerance of the Euler parameters [-]; default ``atol``
+    dt_init : first step [s]; default min(1e-4, dt_max) (or ``fixed_step``)
+    dt_min : smallest step [s] before the run stops with STEP_TOO_SMALL (default 1e-10)
+    dt_max : largest step [s]; default min(t_end − t0, 1e-2). Not tied to the output times
+        (outputs come from the dense output of the steps, solvers/driver.py).
+    fixed_step : float [s], optional — fixed steps, no error control (steps still land on
+        controller samples and motion breakpoints)
+    max_newton : Newton iterations per step attempt (default 10)
+    jacobian_reuse : keep the Newton matrix across steps (modified Newton, as in Adams): fewer
+        matrix builds, linear convergence (:class:`StepOptions`). Under ``jax.vmap`` the
+        rebuild decisions are batch-wide (solvers/batching.py).
+    lu_per_lane : under ``jax.vmap``, one LAPACK LU call per variant instead of jaxlib's batched
+        LU, which can deadlock when two batches run at once in threads (:class:`StepOptions`;
+        :func:`proleg.sweep` sets it for its workers)
+    """
+
+    rtol: float = 1e-6
+    atol: float = 1e-7
+    atol_p: float | None = None
+    dt_init: float | None = None
+    dt_min: float = 1e-10
+    dt_max: float | None = None
+    fixed_step: float | None = None
+    max_newton: int = 10
+    jacobian_reuse: bool = False
+    lu_per_lane: bool = False
+
+    def step_options(self) -> StepOptions:
+        return StepOptions(
+            rtol=float(self.rtol), atol=float(self.atol), atol_p=float(self.atol if self.atol_p is None else self.atol_p),
+            max_newton=int(self.max_newton), jacobian_reuse=bool(self.jacobian_reuse), lu_per_lane=bool(self.lu_per_lane),
+        )
+
+    @property
+    def method(self):
+        """The same method with default options: what the compiled step depends on (the options
+        reach it through :class:`StepOptions` and the driver's options)."""
+        return type(self)(**{f.name: getattr(self, f.name) for f in fields(self) if f.name not in _OPTION_FIELDS})
+
+    def _check_options(self):
+        from ..errors import ModelError
+
+        name = type(self).__name__
+        for k in ("rtol", "atol"):
+            if not float(getattr(self, k)) > 0:
+                raise ModelError(f"{name} {k} must be positive, got {getattr(self, k)}.")
+        for k in ("atol_p", "dt_init", "dt_max", "fixed_step"):
+            v = getattr(self, k)
+            if v is not None and not float(v) > 0:
+                raise ModelError(f"{name} {k} must be positive [s or -], got {v}; leave it None for the default.")
+        if not int(self.max_newton) >= 1:
+            raise ModelError(f"{name} max_newton must be at least 1, got {self.max_newton}.")
+
+
 @dataclass(frozen=True)
-class GeneralizedAlpha:
-    """Generalized-α, index 3, scaled Newton (default integrator)."""
+class GeneralizedAlpha(AbstractIntegrator):
+    """Generalized-α, index 3, scaled Newton (default integrator); the options of
+    :class:`AbstractIntegrator` as keywords: ``GeneralizedAlpha(0.8, rtol=1e-8, atol=1e-9)``."""
 
     rho_inf: float = 0.8
 
     def __post_init__(self):
+        self._check_options()
         if not (0.0 <= self.rho_inf < 1.0):
             raise ValueError(f"GeneralizedAlpha rho_inf must be in [0, 1), got {self.rho_inf} (ρ∞ = 1 is unstable at index 3).")
 
@@ -82,12 +146,14 @@ class GeneralizedAlpha:
 
 
 @dataclass(frozen=True)
-class HHT:
-    """HHT-I3 (Adams' HHT): α in [−1/3, 0]; the mass matrix is evaluated at q_{n+1+α}."""
+class HHT(AbstractIntegrator):
+    """HHT-I3 (Adams' HHT): α in [−1/3, 0]; the mass matrix is evaluated at q_{n+1+α}. The
+    options of :class:`AbstractIntegrator` as keywords: ``HHT(-0.05, rtol=1e-7)``."""
 
     alpha: float = -0.05
 
     def __post_init__(self):
+        self._check_options()
         if not (-1.0 / 3.0 <= self.alpha <= 0.0):
             raise ValueError(f"HHT alpha must be in [-1/3, 0], got {self.alpha}.")
 
@@ -125,6 +191,9 @@ class StepOptions:
     # threads then each hold a pool thread and wait for the other: a deadlock (jaxlib 0.10,
     # 2-core VM, 500 lanes). ``sweep`` sets it when it runs batches concurrently.
     lu_per_lane: bool = False
+
+
+_OPTION_FIELDS = frozenset(f.name for f in fields(AbstractIntegrator))
 
 
 def _weights(dyn, q, opts: StepOptions):

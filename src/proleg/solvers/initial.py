@@ -3,12 +3,15 @@ for accelerations and multipliers (note §5)."""
 
 from __future__ import annotations
 
+from functools import partial
+
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from ..assembly.coordinates import Absolute
-from ..assembly.system import System
+from ..assembly.system import System, constraints, generalized_forces, power_terms
+from ..errors import ConvergenceError
 
 
 def mass_matrix(system: System, q):
@@ -44,3 +47,86 @@ def _normalize_p(q, nb):
     qb = q[: 7 * nb].reshape(nb, 7)
     p = qb[:, 3:] / jnp.linalg.norm(qb[:, 3:], axis=1, keepdims=True)
     return jnp.concatenate([jnp.concatenate([qb[:, :3], p], 1).reshape(-1), q[7 * nb :]])
+
+
+def sample_controllers(system, t, q, v, z, first=False):
+    """Controller sample: z ← update(t, q, v, z) for every sampled element."""
+    for g in system.topo.extensions:
+        if hasattr(g, "sample"):
+            z = g.sample(system.params, t, q, v, z, system, first)
+    return z
+
+
+def initial_z(system: System):
+    parts = [jnp.asarray(g.z0(system.params)) for g in system.topo.extensions if hasattr(g, "z0")]
+    return jnp.concatenate(parts) if parts else jnp.zeros(0)
+
+
+def _ic_positions(system: System, q_user, t0, n_iter: int):
+    nb = system.topo.nbody
+    q_user = _normalize_p(q_user, nb)
+
+    def gn(q, _):
+        phi = constraints(system, q, t0)
+        Pq = jax.jacfwd(lambda qq: constraints(system, qq, t0))(q)
+        nq, nc = q.shape[0], phi.shape[0]
+        S = jnp.block([[jnp.eye(nq), Pq.T], [Pq, jnp.zeros((nc, nc))]])
+        dx = jnp.linalg.solve(S, jnp.concatenate([q_user - q, -phi]))
+        return _normalize_p(q + dx[:nq], nb), None
+
+    q, _ = jax.lax.scan(gn, q_user, None, length=n_iter)
+    return q, jnp.max(jnp.abs(constraints(system, q, t0)))
+
+
+@partial(jax.jit, static_argnums=(4,))
+def _ic(system: System, q_user, v_user, t0, n_iter: int, z0):
+    """One compiled initial-conditions analysis: positions (Gauss-Newton), velocities (M-weighted
+    projection), a controller sample at t0, accelerations and multipliers (KKT), powers."""
+    q, res = _ic_positions(system, q_user, t0, n_iter)
+    M = mass_matrix(system, q)
+    Pq = jax.jacfwd(lambda qq: constraints(system, qq, t0))(q)
+    Pt = jax.jacfwd(lambda tt: constraints(system, q, tt))(t0)
+    nq, nc = q.shape[0], Pq.shape[0]
+    S = jnp.block([[M, Pq.T], [Pq, jnp.zeros((nc, nc))]])
+    v = jnp.linalg.solve(S, jnp.concatenate([M @ v_user, -Pt]))[:nq]
+    z = sample_controllers(system, t0, q, v, z0, True)
+    qdd, lam = kkt_accelerations(system, q, v, t0, z)
+    # HHT carries g = (Φ_qᵀλ − Q) of the previous step; start it consistently (not 0).
+    _, vjp = jax.vjp(lambda qq: constraints(system, qq, t0), q)
+    g = vjp(lam)[0] - generalized_forces(system, q, v, t0, z)
+    return q, v, qdd, lam, z, (power_terms(system, q, v, t0, z), g), res
+
+
+def consistent_state(system: System, q_user=None, v_user=None, t0=0.0, z0=None, tol=1e-10):
+    """Initial (q, v, q̈, λ, z) satisfying the constraints at position, velocity and acceleration level."""
+    return _consistent_state(system, q_user, v_user, t0, z0, tol)[:5]
+
+
+def _consistent_state(system, q_user, v_user, t0, z0, tol=1e-10):
+    q_user = system.params["q_init"] if q_user is None else jnp.asarray(q_user, jnp.float64)
+    v_user = system.params["v_init"] if v_user is None else jnp.asarray(v_user, jnp.float64)
+    t0 = jnp.asarray(t0, jnp.float64)
+    z0 = initial_z(system) if z0 is None else z0
+    q, v, qdd, lam, z, pw, res = _ic(system, q_user, v_user, t0, 8, z0)
+    if not isinstance(res, jax.core.Tracer):
+        tries = 0
+        while float(res) > tol and tries < 6:
+            q, v, qdd, lam, z, pw, res = _ic(system, q, v_user, t0, 8, z0)
+            tries += 1
+        if not float(res) <= tol:
+            row = int(jnp.argmax(jnp.abs(jax.jit(constraints)(system, q, t0))))
+            elem, lab = system.topo.ct.labels[row]
+            raise ConvergenceError(
+                f"Initial conditions: model '{system.topo.name}' cannot be assembled (constraint residual "
+                f"{float(res):.3g} in '{elem}', equation {lab}). Check joint locations and part poses."
+            )
+    return q, v, qdd, lam, z, pw
+
+
+def sample_period(system):
+    """The controllers' sample period [s] (the shortest), or None."""
+    periods = [g.period for g in system.topo.extensions if getattr(g, "period", None)]
+    if not periods:
+        return None
+    base = min(periods)
+    return float(base)

@@ -171,13 +171,13 @@ def _objective_fn(study, names, start, objective):
     """u (d,) in the unit box → the objective (traceable)."""
     import jax.numpy as jnp
 
-    from ..analyses.simulate import simulate
+    from ..analyses.simulate import simulate, simulate_kwargs
     from ..assembly.system import System
 
     dims = [study.space.dims[k] for k in names]
     fn = study.outputs[objective]
     apply = study.apply or System.with_params
-    kw = {k: v for k, v in study.simulate.items()}
+    kw = simulate_kwargs(study.simulate)
 
     def values(u):
         vals = dict(start)

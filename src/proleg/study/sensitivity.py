@@ -87,7 +87,7 @@ def local_sensitivity(study, at: dict | None = None, *, outputs=None) -> pd.Data
     import jax
     import jax.numpy as jnp
 
-    from ..analyses.simulate import simulate
+    from ..analyses.simulate import simulate, simulate_kwargs
     from ..assembly.system import System
     from .space import LogRange
 
@@ -113,7 +113,7 @@ def local_sensitivity(study, at: dict | None = None, *, outputs=None) -> pd.Data
 
     def f(p):
         vals = {**{k: jnp.asarray(v, jnp.float64) for k, v in point.items()}, **{k: p[i] for i, k in enumerate(names)}}
-        r = simulate(apply(study.target, vals), progress=False, throw=False, **study.simulate)
+        r = simulate(apply(study.target, vals), progress=False, throw=False, **simulate_kwargs(study.simulate))
         return jnp.stack([jnp.asarray(study.outputs[o](r), jnp.float64).reshape(()) for o in outs])
 
     p0 = jnp.asarray([float(point[k]) for k in names])

@@ -1,0 +1,69 @@
+"""One compile from model to table (issue 20): simulate() compiles the outputs' post-processing
+(accelerations, multipliers, joint reactions, element outputs, energies) with the run, so the
+first ``to_frame()`` compiles nothing. Compilations are counted with JAX's own monitoring event
+for backend compiles (``/jax/core/compile/backend_compile_duration``).
+
+Model: a rod (m = 2 kg, 1 m) hanging at rest on a pin along y, with a vertical spring (k = 100
+N/m) from its tip to a ground anchor at its free length: it stays at rest, so the pin reaction
+is m g and the spring force is zero, closed forms for the table's columns.
+"""
+
+import jax.monitoring as mon
+import numpy as np
+import pytest
+
+import proleg as pl
+
+M, L, G = 2.0, 1.0, 9.81
+
+
+@pytest.fixture(scope="module")
+def system():
+    model = pl.Model("one_compile", gravity=(0, 0, -G))
+    rod = model.add_part("rod", mass=M, inertia=(M * L**2 / 12, M * L**2 / 12, 1e-3), position=(0, 0, -L / 2))
+    model.add_joint(pl.Revolute("pin", model.ground, rod, at=(0, 0, 0), axis=(0, 1, 0)))
+    tip, anchor = model.add_marker(rod, "tip", (0, 0, -L)), model.add_marker(model.ground, "anchor", (0, 0, -1.5 * L))
+    model.add_force(pl.SpringDamper("spring", tip, anchor, stiffness=100.0, damping=0.0, free_length=0.5 * L))
+    return pl.assemble(model)
+
+
+class BackendCompiles:
+    def __init__(self):
+        self.names = []
+
+    def _on(self, event, duration, **kw):
+        if event == "/jax/core/compile/backend_compile_duration":
+            self.names.append(str(kw.get("fun_name", "?")))
+
+    def __enter__(self):
+        mon.register_event_duration_secs_listener(self._on)
+        return self
+
+    def __exit__(self, *exc):
+        mon.unregister_event_duration_listener(self._on)
+        return False
+
+
+def test_to_frame_after_simulate_compiles_nothing(system):
+    res = pl.simulate(system, t_end=0.05, dt_output=1e-3)
+    with BackendCompiles() as c:
+        df = res.to_frame()
+        res.joint("pin"), res.element("spring"), res.energy, res.part("rod").acceleration
+    assert c.names == []
+    # the table's physics: at rest the pin carries the weight; the reaction is reported on the
+    # joint's part I, here the ground, which the rod pulls down with m g
+    np.testing.assert_allclose(df["pin.Fz [N]"], -M * G, rtol=1e-9)
+    np.testing.assert_allclose(df["pin.Fx [N]"], 0.0, atol=1e-9)
+    np.testing.assert_allclose(df["rod.z [m]"], -L / 2, atol=1e-12)
+    np.testing.assert_allclose(df["energy.total [J]"], df["energy.total [J]"][0], atol=1e-9)
+
+
+def test_lazy_outputs_give_the_same_table(system):
+    """RunOptions(prepare_outputs=False): the post-processing compiles on first access instead,
+    with the same numbers."""
+    a = pl.simulate(system, t_end=0.05, dt_output=1e-3).to_frame()
+    lazy = pl.simulate(system, t_end=0.05, dt_output=1e-3, run=pl.RunOptions(prepare_outputs=False))
+    assert lazy._compiled_post is None
+    b = lazy.to_frame()
+    assert list(a.columns) == list(b.columns)
+    np.testing.assert_array_equal(a.to_numpy(), b.to_numpy())
