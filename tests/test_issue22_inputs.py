@@ -213,7 +213,7 @@ CASES = [
     ("dt_output_nan", lambda s, r, p: pl.simulate(s, 0.1, math.nan), M, "dt_output = nan"),
     ("rtol_zero", lambda s, r, p: pl.simulate(s, 0.1, rtol=0.0), M, "rtol must be positive"),
     ("rtol_negative", lambda s, r, p: pl.simulate(s, 0.1, rtol=-1e-6), M, "rtol must be positive"),
-    ("atol_nan", lambda s, r, p: pl.simulate(s, 0.1, atol=math.nan), M, "atol = nan"),
+    ("atol_nan", lambda s, r, p: pl.simulate(s, 0.1, atol=math.nan), M, "atol must be positive, got nan"),
     ("dt_min_above_dt_max", lambda s, r, p: pl.simulate(s, 0.1, dt_min=1e-2, dt_max=1e-3), M, "dt_min = 0.01 s is above dt_max"),
     ("fixed_step_zero", lambda s, r, p: pl.simulate(s, 0.1, fixed_step=0.0), M, "fixed_step must be positive"),
     ("max_newton_zero", lambda s, r, p: pl.simulate(s, 0.1, max_newton=0), M, "max_newton"),

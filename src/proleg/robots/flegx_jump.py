@@ -280,7 +280,7 @@ def flegx_jump(configuration: int = 4, link_case: int = 2, link_model: str = "cb
             warnings.filterwarnings("ignore", message=".*redundant constraint.*")
             system = pl.assemble(model)
     t0 = time.perf_counter()
-    res = pl.simulate(system, t_end=law.t_end, dt_output=dt_output, integrator=pl.GeneralizedAlpha(rtol=rtol, atol=atol), progress=progress)
+    res = pl.simulate(system, t_end=law.t_end, dt_output=dt_output, integrator=pl.GeneralizedAlpha(rtol=rtol, atol=atol, dt_max=dt_output), progress=progress)
     wall = time.perf_counter() - t0
     metrics, series = jump_metrics(res, model, law)
     return JumpResult(res, metrics, series, model, system, law, wall)

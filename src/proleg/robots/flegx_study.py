@@ -113,7 +113,7 @@ def group_study(group: dict, law: MotionLaw | None = None, dt_output: float = 2e
 
     outputs = {k: (lambda r, k=k: metrics(r)[k]) for k in (*OUTPUTS, "apex_in_window")}
     study = Study(var.base, {"configuration": list(group["configurations"]), "link_case": list(group["cases"])}, outputs,
-                  simulate=dict(t_end=law.t_end, dt_output=dt_output, rtol=rtol, atol=atol), apply=var.apply,
+                  simulate=dict(t_end=law.t_end, dt_output=dt_output, rtol=rtol, atol=atol, dt_max=dt_output), apply=var.apply,
                   name=f"flegx {group['name']}")
     design = pd.DataFrame(var.keys, columns=["configuration", "link_case"]).astype(float)
     return study, design

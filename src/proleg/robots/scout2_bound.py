@@ -295,7 +295,7 @@ def scout2_bound(model: str = "I", t_end: float = 10.0, *, per: str = "physical"
         system = system.with_params(q_init=q0, v_init=v0)
     if variables:
         system = system.with_params(variables)
-    res = simulate(system, t_end=t_end, dt_output=dt_output, integrator=GeneralizedAlpha(rtol=rtol), throw=False, progress=progress)
+    res = simulate(system, t_end=t_end, dt_output=dt_output, integrator=GeneralizedAlpha(rtol=rtol, dt_max=min(dt_output, 1e-2)), throw=False, progress=progress)
     info = mdl.scout2
     st = stride_table(res, info) if len(res.t) > 2 else pd.DataFrame()
     met = gait_metrics(res, st, system, transient=transient)

@@ -72,10 +72,11 @@ class Knot(NamedTuple):
     qdd: jnp.ndarray
     w: jnp.ndarray
     z: jnp.ndarray
+    pw: jnp.ndarray  # powers (dissipated, input) [W] the step's trapezoidal rule used at this end
 
 
 def knot(st: StepState, z=None) -> Knot:
-    return Knot(st.t, st.q, st.v, st.qdd, st.w, st.z if z is None else z)
+    return Knot(st.t, st.q, st.v, st.qdd, st.w, st.z if z is None else z, st.pw)
 
 
 def dense_output(dyn, a: Knot, b: Knot, t, fac=None):
@@ -87,8 +88,9 @@ def dense_output(dyn, a: Knot, b: Knot, t, fac=None):
     error is h⁴/384·max|q⁗| (positions) and h⁴/384·max|v⁗| (velocities), O(h⁴), one order above
     the method's local error O(h³) (note §4): the interpolation adds less than the step's
     tolerance. The interpolated Euler parameters are normalised (p/|p|, ṗ − p pᵀṗ), so each
-    output is a unit quaternion as the solver's own states are. w (energies) is linear — its
-    integrand is the trapezoidal rule's —, z (controller state) is held: piecewise constant
+    output is a unit quaternion as the solver's own states are. w (energies) is the integral of
+    the trapezoidal rule's own integrand, the power linear between its end values,
+    w(s) = w_a + h (s P_a + s²/2 (P_b − P_a)) (w_b at s = 1, as the step), z (controller state) is held: piecewise constant
     between samples, the post-sample value exactly at a sample time. At t = b.t the output is
     the solver's state b exactly.
 
@@ -116,7 +118,8 @@ def dense_output(dyn, a: Knot, b: Knot, t, fac=None):
         q = q + jnp.where(jnp.all(jnp.isfinite(dx)), dx[:nq], 0.0)
     q = jnp.where(at_end, b.q, q)
     v = jnp.where(at_end, b.v, v)
-    w = a.w + s * (b.w - a.w)
+    w = a.w + h * (s * a.pw + 0.5 * s2 * (b.pw - a.pw))
+    w = jnp.where(at_end, b.w, w)
     z = jnp.where(at_end, b.z, a.z)
     return q, v, w, z
 
