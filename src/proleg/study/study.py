@@ -99,14 +99,8 @@ class Study:
                 vals = d.values if isinstance(d, Choice) else ([d.value] if isinstance(d, Fixed) else [])
                 if any(isinstance(v, str) for v in vals):
                     raise ModelError(f"Study: '{k}' has text values {list(vals)}; a System parameter takes numbers (text choices need a builder).")
-        if not isinstance(outputs, dict) or not outputs:
-            raise ModelError("Study: give at least one output, e.g. outputs={'x_end': lambda r: r.part('lower').position[-1, 0]}.")
-        for k, fn in outputs.items():
-            if not callable(fn):
-                raise ModelError(f"Study: output '{k}' is not a function of the Result (got {type(fn).__name__}).")
-            if k in RESERVED or k in self.space.dims:
-                raise ModelError(f"Study: output name '{k}' clashes with a column ({'reserved' if k in RESERVED else 'a parameter'}); rename it.")
-        self.outputs = dict(outputs)
+        self.outputs = _checked_outputs(outputs, self.space, "Study", "outputs={'x_end': lambda r: r.part('lower').position[-1, 0]}",
+                                        "a function of the Result")
         self.simulate = dict(simulate or {})
         if "t_end" not in self.simulate:
             raise ModelError("Study: simulate needs t_end [s], e.g. simulate=dict(t_end=1.0, dt_output=0.01).")
@@ -136,14 +130,8 @@ class Study:
         self = cls.__new__(cls)
         self.target, self.is_builder, self.kind, self.apply, self.simulate = fn, False, "function", None, {}
         self.space = Space(space)
-        if not isinstance(outputs, dict) or not outputs:
-            raise ModelError("Study.function: give at least one output name, e.g. outputs=['stiffness'].")
-        for k, f in outputs.items():
-            if not callable(f):
-                raise ModelError(f"Study.function: output '{k}' is not a name or a function of the returned value (got {type(f).__name__}).")
-            if k in RESERVED or k in self.space.dims:
-                raise ModelError(f"Study.function: output name '{k}' clashes with a column ({'reserved' if k in RESERVED else 'a parameter'}); rename it.")
-        self.outputs = dict(outputs)
+        self.outputs = _checked_outputs(outputs, self.space, "Study.function", "outputs=['stiffness']",
+                                        "a name or a function of the returned value")
         self.name = name or getattr(fn, "__name__", "study")
         return self
 
@@ -281,6 +269,18 @@ class Study:
 
     def __repr__(self):
         return f"Study({self.name!r}: {list(self.space.dims)} -> {list(self.outputs)})"
+
+
+def _checked_outputs(outputs, space, who: str, example: str, what: str) -> dict:
+    """The study's {name: function}, each callable, none named like a column."""
+    if not isinstance(outputs, dict) or not outputs:
+        raise ModelError(f"{who}: give at least one output, e.g. {example}.")
+    for k, fn in outputs.items():
+        if not callable(fn):
+            raise ModelError(f"{who}: output '{k}' is not {what} (got {type(fn).__name__}).")
+        if k in RESERVED or k in space.dims:
+            raise ModelError(f"{who}: output name '{k}' clashes with a column ({'reserved' if k in RESERVED else 'a parameter'}); rename it.")
+    return dict(outputs)
 
 
 class _Pick:
