@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ModelError
-from .solid import compact_tets
+from .solid import compact_tets, gmsh_model
 
 
 def mesh_occ(build, h: float, *, name: str = "proleg_occ", h_min: float | None = None,
@@ -39,14 +39,7 @@ def mesh_occ(build, h: float, *, name: str = "proleg_occ", h_min: float | None =
     """
     if not (np.isfinite(h) and h > 0):
         raise ModelError(f"mesh_occ element size h must be positive [m]; got {h!r}.")
-    import gmsh
-
-    owner = not gmsh.isInitialized()
-    if owner:
-        gmsh.initialize(interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add(name)
+    with gmsh_model(name) as gmsh:
         build(gmsh.model.occ)
         gmsh.model.occ.synchronize()
         if not gmsh.model.getEntities(3):
@@ -75,11 +68,6 @@ def mesh_occ(build, h: float, *, name: str = "proleg_occ", h_min: float | None =
         if not tets_tags:
             raise ModelError(f"gmsh produced no tetrahedra for '{name}' with h = {h}; reduce h.")
         tets_tags = np.vstack(tets_tags)
-    finally:
-        if owner:
-            gmsh.finalize()
-        else:
-            gmsh.model.remove()
     return compact_tets(tags, coords, tets_tags)
 
 

@@ -19,6 +19,8 @@ scikit-fem and gmsh are imported inside the functions that need them.
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,14 +48,7 @@ def mesh_box(size, h: float, origin=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.nda
         raise ModelError(f"mesh_box size must be three positive lengths [m]; got {np.asarray(size).tolist()}.")
     if not (np.isfinite(h) and h > 0):
         raise ModelError(f"mesh_box element size h must be positive [m]; got {h!r}.")
-    import gmsh
-
-    owner = not gmsh.isInitialized()  # leave a caller's gmsh session running
-    if owner:
-        gmsh.initialize(interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("proleg_box")
+    with gmsh_model("proleg_box") as gmsh:
         gmsh.model.occ.addBox(*[float(v) for v in origin], *size)
         gmsh.model.occ.synchronize()
         gmsh.option.setNumber("Mesh.MeshSizeMax", float(h))
@@ -64,12 +59,28 @@ def mesh_box(size, h: float, origin=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.nda
         if not conn:
             raise ModelError(f"gmsh produced no tetrahedra for box {size.tolist()} with h = {h}; reduce h.")
         tets_tags = np.asarray(conn[0], dtype=np.int64).reshape(-1, 4)
+    return compact_tets(tags, coords, tets_tags)
+
+
+@contextmanager
+def gmsh_model(name: str):
+    """A gmsh model ``name`` for the duration of the block (yields the ``gmsh`` module, terminal
+    output off). gmsh is initialised here only if the caller has no session running, and then
+    finalised at the end; otherwise the model is removed and the caller's session left running."""
+    import gmsh
+
+    owner = not gmsh.isInitialized()
+    if owner:
+        gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add(name)
+        yield gmsh
     finally:
         if owner:
             gmsh.finalize()
         else:
             gmsh.model.remove()
-    return compact_tets(tags, coords, tets_tags)
 
 
 def compact_tets(tags, coords, tets_tags):

@@ -83,12 +83,9 @@ def _all(flags):
 def _geometry_checks(design, clearance, flatness_tol):
     """Per gauge: flatness [m] of the true (CAD) surface under the grid, and the free distance [m]
     in front of it (up to ``clearance``), from gmsh's OpenCASCADE model."""
-    import gmsh
+    from ..fem.solid import gmsh_model
 
-    gmsh.initialize(interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("sensor_check")
+    with gmsh_model("sensor_check") as gmsh:
         design.build(gmsh.model.occ)
         gmsh.model.occ.synchronize()
         vol = gmsh.model.getEntities(3)[0][1]
@@ -123,8 +120,6 @@ def _geometry_checks(design, clearance, flatness_tol):
                     break
             out.append(dict(flatness=flat, planar=bool(planar), clearance=free, reachable=free >= clearance))
         return out
-    finally:
-        gmsh.finalize()
 
 
 def torque_sensor_analysis(concept: str = "final", torque: float = 140.0, mesh_size: float | None = None, *,
