@@ -239,7 +239,8 @@ def run_machinery(out_dir="results/flegx-machinery", progress: bool = True, work
     # (one clean flight). With 0.32 s the foot first leaves at 1.18 s and touches again at 1.33 s while the leg still
     # extends; the apex (guide 1.41 s) is in the flight from 1.38 s.
     law = dict(extend=(-20.0 * deg, 40.0 * deg), t_push=0.32)
-    jobs = [dict(tag=g, configuration=4, link_case=2, link_model="cb", gears=g, dt_output=1e-3, **law) for g in ("worm", "ideal")]
+    jobs = [dict(tag=g, configuration=4, link_case=2, link_model="cb", gears=g, dt_output=1e-3, animate=g == "worm", **law)
+            for g in ("worm", "ideal")]
     outs = run_jobs(jobs, workers, progress)
     tab = _metrics_table(outs)
     _long(outs).to_parquet(out / "machinery.parquet", index=False)
@@ -282,6 +283,8 @@ def run_machinery(out_dir="results/flegx-machinery", progress: bool = True, work
         "(the worm meshes' compliance and friction change the leg's motion only slightly: the motors impose the worms' rotation).\n"
         f"- Jump {mw['jump_height'] * 1e3:.1f} mm, max stress {mw['max_stress'] / 1e6:.0f} MPa, tip {mw['tip_displacement'] * 1e3:.1f} mm "
         f"({100 * mw['tip_displacement'] / 0.25:.1f} % of L).")
+    rep.add_heading("3D animation (worm gears, Craig-Bampton link)")
+    rep.add_html(outs[0]["animation"])
     rep.add_heading("Model")
     rep.add_parameters(outs[0]["parameters"], "Parameters and sources (MODEL_DATA §3).")
     rep.add_key_values({"total wall time [s]": f"{time.perf_counter() - wall0:.1f}", "output folder": str(out)}, "Run")
