@@ -72,7 +72,8 @@ def main():
             ok = int((tab["status"] == "success").sum())
         wall = time.perf_counter() - t0
         shutil.rmtree(store, ignore_errors=True)
-        rows.append({"executor": ex, "variants": args.n, "succeeded": ok, "wall [s]": wall, "variants/s": args.n / wall})
+        rows.append({"executor": ex, "variants": args.n, "succeeded": ok, "wall [s]": wall, "variants/s": args.n / wall,
+                     "load (1 min) at end": os.getloadavg()[0]})
         print(rows[-1], flush=True)
     df = pd.DataFrame(rows)
     df.attrs["machine"] = f"{platform.node()} {os.cpu_count()} cores"
