@@ -43,18 +43,72 @@ def _worker_name() -> str:
         return f"{socket.gethostname()}:{os.getpid()}"
 
 
-def _shape_key(system) -> str:
-    """Systems with equal keys share one compiled simulation (same topology and array shapes)."""
-    import cloudpickle
+def _shape_key(system, simulate_kw: dict) -> str:
+    """Builds with equal keys share one compiled simulation: equal names, and the same traced
+    simulation — ``jax.make_jaxpr`` of :func:`proleg.simulate` as a function of the params, its
+    text (operations, shapes, literals) and the values of every constant it captured.
 
+    That is what decides the compiled program, and nothing else: numbers that live in
+    ``system.params`` (masses, marker geometry, stiffnesses, the initial pose) are its inputs
+    and do not enter the key, so two builds that differ only in them share one compile, and the
+    group's base System run with a member's params computes exactly the member's simulation.
+    Numbers the Topology keeps static and the simulation uses are constants of the trace and
+    split groups, as they must: a Motion's function of a builder argument, a controller's
+    period or output limit, a PID's constant setpoint, a drive's data, the planar reduction's
+    row combinations (canonical for the same joints, ``assembly.coordinates._canonical_basis``,
+    so a longer link does not change them), Python branches on static values. Names (parts,
+    markers, elements, joints) are in the key because outputs look them up.
+
+    Cost: one trace of the simulation per build (about one ``assemble``; FLEGX 4 s, the
+    pendulum of the tests 3 s on the loaded 2-core VM), no compilation. A build whose trace
+    fails gets a key of its own (its sweep then reports the error in its row)."""
+    import jax
+
+    from ..analyses.simulate import simulate, simulate_kwargs
+    from ..assembly.system import System
+
+    topo, kw = system.topo, simulate_kwargs(simulate_kw)
     h = hashlib.sha1()
+    names = [topo.name, topo.body_names, topo.marker_names, [getattr(j, "name", "") for j in topo.joints],
+             [(g.kind, list(g.names)) for g in topo.groups + topo.extensions],
+             [(k, tuple(np.shape(v)), str(np.asarray(v).dtype)) for k, v in sorted(system.params.items())]]
+    h.update(repr(names).encode())
+
+    def run(params):
+        r = simulate(System(params, topo), progress=False, throw=False, **kw)
+        return r.q, r.v, r.w, r.z, *r.traced_status
+
     try:
-        h.update(cloudpickle.dumps(system.topo))
-    except Exception:  # an unpicklable topology: group by identity only
-        h.update(str(id(system.topo)).encode())
-    for k in sorted(system.params):
-        h.update(f"{k}{tuple(np.shape(system.params[k]))}".encode())
+        closed = jax.make_jaxpr(run)(system.params)
+    except Exception:  # not traceable here: a group of its own
+        return uuid.uuid4().hex
+    h.update(str(closed.jaxpr).encode())
+    for c in _jaxpr_consts(closed):
+        a = np.asarray(c)
+        h.update(f"{a.shape}{a.dtype}".encode())
+        h.update(np.ascontiguousarray(a).tobytes() if a.dtype != object else repr(a).encode())
     return h.hexdigest()
+
+
+def _jaxpr_consts(closed) -> list:
+    """The constants of a ClosedJaxpr and of every jaxpr nested in its equations (loop bodies,
+    branches, inner jits), in order."""
+    from jax.extend.core import ClosedJaxpr, Jaxpr
+
+    out, stack = [], [closed]
+    while stack:
+        j = stack.pop()
+        if isinstance(j, ClosedJaxpr):
+            out += list(j.consts)
+            j = j.jaxpr
+        nested = []
+        for eqn in j.eqns:
+            for v in eqn.params.values():
+                for x in (v if isinstance(v, (tuple, list)) else (v,)):
+                    if isinstance(x, (ClosedJaxpr, Jaxpr)):
+                        nested.append(x)
+        stack += reversed(nested)
+    return out
 
 
 def _row(key, vals, batch, worker):
@@ -67,7 +121,13 @@ def _num(v):
 
 
 def _outputs_of(job, res, i) -> tuple[dict, str, str]:
-    """({output: value}, status, reason) of variant i of a SweepResult."""
+    """({output: value}, status, reason) of variant i of a SweepResult.
+
+    A builder's group member gets the Result of the group's base System with its own params:
+    the same names and the same simulation as its own build (:func:`_shape_key`), and the
+    output post-processing compiled once per group rather than once per build. Only the
+    model description (``r.system.topo.model``) is the base's: an output that needs a
+    variant's description reads it from the variant's parameters."""
     st = res.status[i]
     nan = {k: math.nan for k in job.outputs}
     if st != Status.SUCCESS:
@@ -106,7 +166,7 @@ def evaluate_batch(job: Job, rows: list[tuple[str, dict]], *, workers: int = 1, 
         for key, vals in rows:
             try:
                 system = job.target(**vals)
-                groups.setdefault(_shape_key(system), (system, []))[1].append((key, vals, system))
+                groups.setdefault(_shape_key(system, job.simulate_kw), (system, []))[1].append((key, vals, system))
             except Exception as exc:
                 out[key] = {**_row(key, vals, batch, worker), **{k: math.nan for k in job.outputs},
                             "status": "build_error", "reason": f"{type(exc).__name__}: {exc}"}
