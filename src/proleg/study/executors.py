@@ -246,6 +246,51 @@ def run_vmap(job, batches, *, workers):
 _POOLS: dict = {}
 
 
+def compilation_cache_dir() -> str | None:
+    """This process's persistent JAX compilation cache folder (None: no cache)."""
+    import jax
+
+    return jax.config.jax_compilation_cache_dir
+
+
+def use_compilation_cache(path: str | None) -> None:
+    """Make this (worker) process use the persistent compilation cache folder ``path`` of the
+    driver, where that folder exists here (the same machine, or a file system shared with the
+    cluster): a shape compiled by one worker, or by the driver, is then read by the others
+    instead of compiled again, and a worker's own compilations are kept across its batches and
+    studies. Elsewhere the worker keeps its own cache (proleg's default folder)."""
+    import jax
+
+    if not path or not os.path.isdir(path) or jax.config.jax_compilation_cache_dir == path:
+        return
+    jax.config.update("jax_compilation_cache_dir", path)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
+    jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
+    try:  # a cache already opened on another folder is reopened on this one
+        from jax.experimental.compilation_cache import compilation_cache
+
+        compilation_cache.reset_cache()
+    except (ImportError, AttributeError):  # pragma: no cover - older jax
+        pass
+
+
+def _cache_plugin(path):
+    """A Dask WorkerPlugin that runs :func:`use_compilation_cache` on every worker, also on
+    workers that join later."""
+    from distributed.diagnostics.plugin import WorkerPlugin
+
+    class CompilationCache(WorkerPlugin):
+        name = "proleg-compilation-cache"
+
+        def __init__(self, path):
+            self.path = path
+
+        def setup(self, worker):
+            use_compilation_cache(self.path)
+
+    return CompilationCache(path)
+
+
 def process_pool(workers: int):
     """This process's pool of ``workers`` spawned worker processes (JAX is not fork-safe), kept
     between studies and between an optimisation's batches so that each worker imports proleg and
@@ -258,7 +303,8 @@ def process_pool(workers: int):
     if pool is None or getattr(pool, "_broken", False) or getattr(pool, "_shutdown_thread", False):
         if not _POOLS:
             atexit.register(shutdown_pools)
-        pool = _POOLS[workers] = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"))
+        pool = _POOLS[workers] = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"),
+                                                     initializer=use_compilation_cache, initargs=(compilation_cache_dir(),))
     return pool
 
 
@@ -315,10 +361,12 @@ def connect(scheduler=None, *, workers: int = 2, timeout_s: float = DEFAULT_TIME
 
 
 def run_dask(job, batches, *, client):
-    """Each batch a Dask task; a task lost with a worker is rescheduled by Dask."""
+    """Each batch a Dask task; a task lost with a worker is rescheduled by Dask. Every worker
+    first takes the driver's compilation cache folder (:func:`use_compilation_cache`)."""
     import cloudpickle
     from distributed import as_completed
 
+    client.register_plugin(_cache_plugin(compilation_cache_dir()))
     futs = [client.submit(run_payload, cloudpickle.dumps((job, b)), pure=False) for b in batches]
     for f in as_completed(futs):
         yield f.result()

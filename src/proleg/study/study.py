@@ -302,12 +302,13 @@ class _Pick:
 class _Bar:
     """rich progress bar: variants done / total, failures, rate [variants/s] and ETA."""
 
-    def __init__(self, total, label):
+    def __init__(self, total, label, console=None):
         from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
         self.t0, self.done = time.perf_counter(), 0
         self.p = Progress(TextColumn(f"[bold]{label}[/]"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[rate]}"),
-                          TextColumn("[red]{task.fields[failed]}[/]"), TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn())
+                          TextColumn("[red]{task.fields[failed]}[/]"), TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
+                          console=console)
         self.task = self.p.add_task("study", total=total, rate="", failed="")
         self.failed = 0
         self.p.start()
