@@ -249,8 +249,9 @@ class Study:
 
         return optimize(self, objective, constraints, n_trials, **kw)
 
-    def refine(self, start: dict, objective: str, **kw):
-        """Gradient-based local refinement from ``start`` (:func:`proleg.study.optimize.refine`)."""
+    def refine(self, start, objective: str, **kw):
+        """Gradient-based local refinement from ``start`` (parameters, or the result of
+        :meth:`optimize`: from its best trial) (:func:`proleg.study.optimize.refine`)."""
         from .optimize import refine
 
         return refine(self, start, objective, **kw)
