@@ -2,8 +2,9 @@
 ``"processes"`` (local worker processes) and ``"dask"`` (a ``distributed`` cluster).
 
 A batch is evaluated by :func:`evaluate_batch` wherever it runs: the variants go through
-:func:`proleg.sweep` in one compiled ``vmap`` batch (a builder's variants grouped by compiled
-shape, one sweep per group), each output function is applied to each variant's Result, and
+:func:`proleg.sweep` in one compiled ``vmap`` batch (a builder's variants grouped by their
+traced simulation, :func:`_shape_key`, one sweep per group), each output function is applied
+to each variant's Result, and
 every variant comes back as a row, also when its simulation, its build or an output failed
 (``status`` and ``reason`` say what). Rows are written to the store by the driver only, as each
 batch comes back: a batch lost with a killed worker is run again, never written twice.
@@ -362,7 +363,10 @@ def connect(scheduler=None, *, workers: int = 2, timeout_s: float = DEFAULT_TIME
 
 def run_dask(job, batches, *, client):
     """Each batch a Dask task; a task lost with a worker is rescheduled by Dask. Every worker
-    first takes the driver's compilation cache folder (:func:`use_compilation_cache`)."""
+    first takes the driver's compilation cache folder (:func:`use_compilation_cache`): a
+    shape is compiled by XLA once and read from the cache by every later batch and worker
+    (each batch still traces and lowers its simulation, seconds, as :func:`proleg.sweep`
+    builds its function per call)."""
     import cloudpickle
     from distributed import as_completed
 

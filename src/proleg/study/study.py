@@ -73,7 +73,11 @@ class Study:
     Parameters
     ----------
     system_or_builder : System, or a function of the space's parameters (keywords) returning a
-        System (for what changes topology or shape; variants are grouped by compiled shape)
+        System (for what changes topology or geometry). A batch's builds are grouped by their
+        traced simulation (``executors._shape_key``): builds that differ only in parameter
+        values (a link length, a stiffness) share one compiled ``vmap`` batch; a number the
+        compiled code captures (a Motion's function of a builder argument) splits them. Each
+        build costs one trace of its simulation besides its ``assemble``
     space : {name: (lo, hi) | LogRange(lo, hi) | [choices] | fixed value}; names of
         ``system.with_params`` (or the builder's keywords)
     outputs : {name: function(Result) -> float}; an output that raises is recorded in its row
