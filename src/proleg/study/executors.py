@@ -26,6 +26,36 @@ from ..errors import ModelError, Status
 DEFAULT_TIMEOUT_S = 10.0  # connecting to a scheduler address
 
 
+def default_executor(kind: str, backend: str | None = None) -> str:
+    """The executor of ``executor=None`` or ``"auto"`` for a study of ``kind`` ("system",
+    "builder" or "function") on JAX's ``backend`` (default: this process's).
+
+    - a function study: "processes" (FE solves and closed forms are plain Python, one call
+      per variant; worker processes use the cores);
+    - on a GPU (any backend but the CPU): "vmap", for a System and for a builder alike: one
+      process holds the device and runs each compiled group as one batch (worker processes
+      would each take the device's memory, JAX preallocating 75 % of it per process);
+    - on the CPU: "vmap" for a System, "processes" for a builder (whose builds and traces,
+      plain Python, then run on every core).
+
+    Measured (``bench/study_throughput.py --model hyq --n 16``: the HyQ 8-bushing drop over
+    1e6–1e10 N/m, 16 variants, on the quiet 2-core VM at load 1.3 with a warm compilation cache,
+    25 Nov 2026):
+    a loop of ``simulate`` 0.87 variants/s, "vmap" 0.40 variants/s (a batch runs until its
+    slowest lane: the stiff variants take many more steps). "processes" runs the same vmap
+    batches in each worker, so on 2 cores it can at best double 0.40 variants/s and pays each
+    worker's start and compilation (about a minute for this model); its 1,000-variant figure
+    was not measured (the run was stopped under a load of 12–16). So the CPU default of a
+    System study stays "vmap"; choose "processes" for a long study on more cores."""
+    import jax
+
+    if kind == "function":
+        return "processes"
+    if (backend or jax.default_backend()) != "cpu":
+        return "vmap"
+    return "processes" if kind == "builder" else "vmap"
+
+
 class Job:
     """What a worker needs to evaluate a batch (pickled with cloudpickle)."""
 

@@ -170,9 +170,11 @@ class Study:
             progress: bool | None = None, on_batch=None) -> pd.DataFrame:
         """Run the design and return its rows (one per variant, in design order).
 
-        ``executor``: "vmap" (default for a System), "processes" (default for a builder) or
-        "dask" (``scheduler``: an address such as "tcp://host:8786" or a ``distributed.Client``;
-        default a LocalCluster of ``workers`` processes). ``store``: a folder; what it holds is
+        ``executor``: "vmap", "processes" or "dask" (``scheduler``: an address such as
+        "tcp://host:8786" or a ``distributed.Client``; default a LocalCluster of ``workers``
+        processes); None or "auto": :func:`~proleg.study.executors.default_executor` ("vmap"
+        for a System, and for a builder on a GPU; "processes" for a builder on the CPU and for a
+        function study). ``store``: a folder; what it holds is
         not run again, what finishes is written batch by batch. ``batch_size`` variants per
         batch (default: on the CPU the pending ones split over the workers, at most 256).
         ``on_batch(rows)`` is called after each batch is stored.
@@ -188,9 +190,10 @@ class Study:
         if "key" not in table.columns:
             table = table.copy()
             table.insert(0, "key", [variant_key({k: r[k] for k in self.space.dims}) for r in table.to_dict("records")])
-        executor = executor or ("processes" if self.kind != "system" else "vmap")
+        if executor is None or executor == "auto":
+            executor = ex.default_executor(self.kind)
         if not isinstance(executor, str) or executor not in EXECUTORS:
-            raise ModelError(f"Study: unknown executor {executor!r}; valid: {list(EXECUTORS)}.")
+            raise ModelError(f"Study: unknown executor {executor!r}; valid: {[*EXECUTORS, 'auto']}.")
         st = Store(store).open(self.definition()) if store is not None else None
         if st is not None:
             st.add_plan(list(table["key"]), label)
