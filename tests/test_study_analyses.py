@@ -95,6 +95,11 @@ def test_gradient_refinement_improves_on_its_start(system):
     ref = st.refine({"spring.stiffness": 550.0}, "miss", maxiter=15)
     assert ref["value"] < 1e-3 * ref["start_value"]
     assert ref["params"]["spring.stiffness"] == pytest.approx(400.0, rel=2e-2)
+    # from the best trial of an optimisation: four random trials (one vmap batch), then gradients
+    opt = st.optimize("miss", n_trials=4, batch=4, seed=4, workers=1, progress=False)
+    ref = st.refine(opt, "miss", maxiter=15)
+    assert ref["start_value"] == pytest.approx(opt.best_value, rel=1e-9)
+    assert ref["value"] < 1e-3 * opt.best_value and ref["params"]["spring.stiffness"] == pytest.approx(400.0, rel=2e-2)
 
 
 @pytest.mark.slow

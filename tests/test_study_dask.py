@@ -118,3 +118,37 @@ def test_processes_executor_equals_vmap_and_survives_a_killed_worker(tmp_path):
     exp = ref.set_index("key")["x_end"]
     assert set(got.index) == set(exp.index)
     assert max(abs(got[k] - exp[k]) for k in exp.index) < 1e-10
+
+
+def _same_cache_dir(expected):
+    import jax
+
+    return {"same": float(jax.config.jax_compilation_cache_dir == expected)}
+
+
+def test_workers_take_the_drivers_compilation_cache_folder(tmp_path):
+    """Dask workers (a WorkerPlugin) and the processes pool (its initializer) use the driver's
+    persistent compilation cache folder, so that a shape compiled once is read, not compiled,
+    by every other worker and by later batches."""
+    import jax
+    from distributed import Client, LocalCluster
+
+    from proleg.study.executors import shutdown_pools
+
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    old = jax.config.jax_compilation_cache_dir
+    jax.config.update("jax_compilation_cache_dir", str(cache))
+    try:
+        st = pl.study.Study.function(lambda x: _same_cache_dir(str(cache)), {"x": [1.0, 2.0]}, ["same"])
+        with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, Client(cluster) as client:
+            assert list(client.run(lambda: jax.config.jax_compilation_cache_dir).values()) != [str(cache)]  # not before
+            tab = st.run(design="grid", executor="dask", scheduler=client, progress=False)
+            assert list(client.run(lambda: jax.config.jax_compilation_cache_dir).values()) == [str(cache)]
+        assert (tab["same"] == 1.0).all()
+        shutdown_pools()  # a fresh pool: its initializer reads the folder now set
+        tab = st.run(design="grid", executor="processes", workers=1, progress=False)
+        assert (tab["same"] == 1.0).all()
+    finally:
+        jax.config.update("jax_compilation_cache_dir", old)
+        shutdown_pools()

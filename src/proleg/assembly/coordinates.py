@@ -347,10 +347,9 @@ def _planar_basis(system: System, q_ref):
         idx = np.flatnonzero(owner == o)
         U, sv, _ = np.linalg.svd(G[idx], full_matrices=False)
         tol = 1e-9 * max(1.0, float(np.max(np.abs(G[idx]))))
-        for k in np.flatnonzero(sv > tol):
-            u = np.where(np.abs(U[:, k]) > 1e-12, U[:, k], 0.0)
+        for u in _canonical_basis(U[:, sv > tol]):
             row = np.zeros(nc)
-            row[idx] = u / u[np.argmax(np.abs(u))]
+            row[idx] = u
             rows.append(row)
     P = np.array(rows).reshape(len(rows), nc)
     m = P.shape[0]
@@ -369,6 +368,42 @@ def _planar_basis(system: System, q_ref):
     color = greedy_coloring(np.concatenate([mask_q, mask_phi], 0))
     coloring = Coloring(color=color, mask_q=mask_q, mask_phi=mask_phi, dense=col.dense)
     return PlanarBasis(normal=n, E=E, P=P, coloring=coloring, row_map=row_map), "planar"
+
+
+def _canonical_basis(U) -> list:
+    """Rows spanning the columns of ``U`` (orthonormal, (k, r)) that depend on that span only.
+
+    The SVD's singular vectors of one joint's sampled gradients are a basis of its live rows that
+    turns with the geometry (a longer link gives other combinations of the same rows), and P is
+    compiled into the simulation as constants: two builds that differ only in parameter values
+    would then compile differently (proleg.study groups a builder's variants by their traced
+    simulation). The projector U Uᵀ does not depend on the basis: Gram–Schmidt of its columns in
+    index order, entries below 1e-12 set to zero, each row scaled to a largest entry of 1 and
+    rounded to 12 decimals (a change of 1e-12 in the combination of rows that vanish on the
+    plane changes nothing) gives the same rows for the same span. Rows stay orthogonal within
+    the joint (``Planar.reduce_multipliers`` relies on it)."""
+    r = U.shape[1]
+    if r == 0:
+        return []
+    proj = U @ U.T
+    basis = []
+    for i in range(proj.shape[0]):
+        v = proj[:, i].copy()
+        for b in basis:
+            v -= (b @ v) * b
+        nv = np.linalg.norm(v)
+        if nv > 1e-6:
+            basis.append(v / nv)
+        if len(basis) == r:
+            break
+    if len(basis) < r:  # never for an orthonormal U (the columns of U Uᵀ span its range)
+        basis = list(U.T)
+    out = []
+    for v in basis:
+        v = np.where(np.abs(v) > 1e-12, v, 0.0)
+        k = int(np.argmax(np.round(np.abs(v), 9)))  # the first of (nearly) equal largest entries
+        out.append(np.round(v / v[k], 12) + 0.0)
+    return out
 
 
 def coordinate_set(system: System, q_ref, coordinates: str = "auto"):

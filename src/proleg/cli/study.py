@@ -24,7 +24,7 @@ console = Console(stderr=True)
 @study_app.command("run")
 def run(
     file: Path = typer.Argument(..., help="Study file (YAML)."),
-    executor: str = typer.Option(None, "--executor", help="vmap | processes | dask (default: the file's)."),
+    executor: str = typer.Option(None, "--executor", help="auto | vmap | processes | dask (default: the file's)."),
     scheduler: str = typer.Option(None, "--scheduler", help="Dask scheduler address, e.g. tcp://host:8786."),
     store: Path = typer.Option(None, "--store", help="Store folder (default: the file's store)."),
     workers: int = typer.Option(None, "--workers", help="Worker processes / concurrent batches."),

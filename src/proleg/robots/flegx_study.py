@@ -13,9 +13,14 @@ variant's parameter arrays up in a table: one compilation per group (four in all
 in ``vmap`` batches, rows stored as Parquet with resume (a rerun with the same store skips what
 is done), rich progress.
 
-:class:`proleg.study.Study` with a *builder* would rebuild the model per variant and group
-by a pickle of the topology, which holds the model's numbers: every FLEGX variant would be
-its own group and compile (noted for study/); the table ``apply`` avoids that.
+:class:`proleg.study.Study` with a *builder* now groups rebuilt variants by their traced
+simulation, so the variants of a group would share one compile that way too (checked: every
+variant of a group has the same key, the planar rows being canonical). The table ``apply``
+stays because it is cheaper and simpler here: a builder study traces every variant's
+simulation to key it (~4 s each on the 2-core VM, ~100 s more for Table I), and an output
+function sees only the Result, whose System is the group base's, while
+:func:`~proleg.robots.flegx_jump.jump_metrics` needs each variant's own model
+(:meth:`_Variants.key_of` finds it from the body masses).
 
 Simulated window: the jump of :func:`~proleg.robots.flegx_jump.flegx_jump` (same motion law
 for every variant) up to ``STUDY_T_AFTER`` after the end of the push: take-off and apex (Table

@@ -53,9 +53,9 @@ def make_design(space: Space, design="lhs", n: int | None = None, seed: int | No
             return _table(space, design)
         raise ModelError(f"Study: unknown design '{design}'; valid: {list(DESIGNS[:3])}, or a table (DataFrame, dict, CSV/Parquet path).")
     if design == "grid":
-        if n is None or int(n) < 1:
+        if space.continuous and (n is None or int(n) < 1):  # choices and fixed values need no n
             raise ModelError(f"Study: a grid design needs n ≥ 1 levels per continuous dimension (got n = {n!r}).")
-        axes = [d.grid(int(n)) if not isinstance(d, Fixed) else [d.value] for d in space.dims.values()]
+        axes = [d.grid(int(n or 1)) if not isinstance(d, Fixed) else [d.value] for d in space.dims.values()]
         rows = list(itertools.product(*axes))
         return pd.DataFrame(rows, columns=list(space.dims))
     if n is None or int(n) < 1:

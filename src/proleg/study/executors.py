@@ -2,8 +2,9 @@
 ``"processes"`` (local worker processes) and ``"dask"`` (a ``distributed`` cluster).
 
 A batch is evaluated by :func:`evaluate_batch` wherever it runs: the variants go through
-:func:`proleg.sweep` in one compiled ``vmap`` batch (a builder's variants grouped by compiled
-shape, one sweep per group), each output function is applied to each variant's Result, and
+:func:`proleg.sweep` in one compiled ``vmap`` batch (a builder's variants grouped by their
+traced simulation, :func:`_shape_key`, one sweep per group), each output function is applied
+to each variant's Result, and
 every variant comes back as a row, also when its simulation, its build or an output failed
 (``status`` and ``reason`` say what). Rows are written to the store by the driver only, as each
 batch comes back: a batch lost with a killed worker is run again, never written twice.
@@ -25,6 +26,36 @@ from ..errors import ModelError, Status
 DEFAULT_TIMEOUT_S = 10.0  # connecting to a scheduler address
 
 
+def default_executor(kind: str, backend: str | None = None) -> str:
+    """The executor of ``executor=None`` or ``"auto"`` for a study of ``kind`` ("system",
+    "builder" or "function") on JAX's ``backend`` (default: this process's).
+
+    - a function study: "processes" (FE solves and closed forms are plain Python, one call
+      per variant; worker processes use the cores);
+    - on a GPU (any backend but the CPU): "vmap", for a System and for a builder alike: one
+      process holds the device and runs each compiled group as one batch (worker processes
+      would each take the device's memory, JAX preallocating 75 % of it per process);
+    - on the CPU: "vmap" for a System, "processes" for a builder (whose builds and traces,
+      plain Python, then run on every core).
+
+    Measured (``bench/study_throughput.py --model hyq --n 16``: the HyQ 8-bushing drop over
+    1e6–1e10 N/m, 16 variants, on the quiet 2-core VM at load 1.3 with a warm compilation cache,
+    25 Nov 2026):
+    a loop of ``simulate`` 0.87 variants/s, "vmap" 0.40 variants/s (a batch runs until its
+    slowest lane: the stiff variants take many more steps). "processes" runs the same vmap
+    batches in each worker, so on 2 cores it can at best double 0.40 variants/s and pays each
+    worker's start and compilation (about a minute for this model); its 1,000-variant figure
+    was not measured (the run was stopped under a load of 12–16). So the CPU default of a
+    System study stays "vmap"; choose "processes" for a long study on more cores."""
+    import jax
+
+    if kind == "function":
+        return "processes"
+    if (backend or jax.default_backend()) != "cpu":
+        return "vmap"
+    return "processes" if kind == "builder" else "vmap"
+
+
 class Job:
     """What a worker needs to evaluate a batch (pickled with cloudpickle)."""
 
@@ -43,18 +74,72 @@ def _worker_name() -> str:
         return f"{socket.gethostname()}:{os.getpid()}"
 
 
-def _shape_key(system) -> str:
-    """Systems with equal keys share one compiled simulation (same topology and array shapes)."""
-    import cloudpickle
+def _shape_key(system, simulate_kw: dict) -> str:
+    """Builds with equal keys share one compiled simulation: equal names, and the same traced
+    simulation — ``jax.make_jaxpr`` of :func:`proleg.simulate` as a function of the params, its
+    text (operations, shapes, literals) and the values of every constant it captured.
 
+    That is what decides the compiled program, and nothing else: numbers that live in
+    ``system.params`` (masses, marker geometry, stiffnesses, the initial pose) are its inputs
+    and do not enter the key, so two builds that differ only in them share one compile, and the
+    group's base System run with a member's params computes exactly the member's simulation.
+    Numbers the Topology keeps static and the simulation uses are constants of the trace and
+    split groups, as they must: a Motion's function of a builder argument, a controller's
+    period or output limit, a PID's constant setpoint, a drive's data, the planar reduction's
+    row combinations (canonical for the same joints, ``assembly.coordinates._canonical_basis``,
+    so a longer link does not change them), Python branches on static values. Names (parts,
+    markers, elements, joints) are in the key because outputs look them up.
+
+    Cost: one trace of the simulation per build (about one ``assemble``; FLEGX 4 s, the
+    pendulum of the tests 3 s on the loaded 2-core VM), no compilation. A build whose trace
+    fails gets a key of its own (its sweep then reports the error in its row)."""
+    import jax
+
+    from ..analyses.simulate import simulate, simulate_kwargs
+    from ..assembly.system import System
+
+    topo, kw = system.topo, simulate_kwargs(simulate_kw)
     h = hashlib.sha1()
+    names = [topo.name, topo.body_names, topo.marker_names, [getattr(j, "name", "") for j in topo.joints],
+             [(g.kind, list(g.names)) for g in topo.groups + topo.extensions],
+             [(k, tuple(np.shape(v)), str(np.asarray(v).dtype)) for k, v in sorted(system.params.items())]]
+    h.update(repr(names).encode())
+
+    def run(params):
+        r = simulate(System(params, topo), progress=False, throw=False, **kw)
+        return r.q, r.v, r.w, r.z, *r.traced_status
+
     try:
-        h.update(cloudpickle.dumps(system.topo))
-    except Exception:  # an unpicklable topology: group by identity only
-        h.update(str(id(system.topo)).encode())
-    for k in sorted(system.params):
-        h.update(f"{k}{tuple(np.shape(system.params[k]))}".encode())
+        closed = jax.make_jaxpr(run)(system.params)
+    except Exception:  # not traceable here: a group of its own
+        return uuid.uuid4().hex
+    h.update(str(closed.jaxpr).encode())
+    for c in _jaxpr_consts(closed):
+        a = np.asarray(c)
+        h.update(f"{a.shape}{a.dtype}".encode())
+        h.update(np.ascontiguousarray(a).tobytes() if a.dtype != object else repr(a).encode())
     return h.hexdigest()
+
+
+def _jaxpr_consts(closed) -> list:
+    """The constants of a ClosedJaxpr and of every jaxpr nested in its equations (loop bodies,
+    branches, inner jits), in order."""
+    from jax.extend.core import ClosedJaxpr, Jaxpr
+
+    out, stack = [], [closed]
+    while stack:
+        j = stack.pop()
+        if isinstance(j, ClosedJaxpr):
+            out += list(j.consts)
+            j = j.jaxpr
+        nested = []
+        for eqn in j.eqns:
+            for v in eqn.params.values():
+                for x in (v if isinstance(v, (tuple, list)) else (v,)):
+                    if isinstance(x, (ClosedJaxpr, Jaxpr)):
+                        nested.append(x)
+        stack += reversed(nested)
+    return out
 
 
 def _row(key, vals, batch, worker):
@@ -67,7 +152,13 @@ def _num(v):
 
 
 def _outputs_of(job, res, i) -> tuple[dict, str, str]:
-    """({output: value}, status, reason) of variant i of a SweepResult."""
+    """({output: value}, status, reason) of variant i of a SweepResult.
+
+    A builder's group member gets the Result of the group's base System with its own params:
+    the same names and the same simulation as its own build (:func:`_shape_key`), and the
+    output post-processing compiled once per group rather than once per build. Only the
+    model description (``r.system.topo.model``) is the base's: an output that needs a
+    variant's description reads it from the variant's parameters."""
     st = res.status[i]
     nan = {k: math.nan for k in job.outputs}
     if st != Status.SUCCESS:
@@ -106,7 +197,7 @@ def evaluate_batch(job: Job, rows: list[tuple[str, dict]], *, workers: int = 1, 
         for key, vals in rows:
             try:
                 system = job.target(**vals)
-                groups.setdefault(_shape_key(system), (system, []))[1].append((key, vals, system))
+                groups.setdefault(_shape_key(system, job.simulate_kw), (system, []))[1].append((key, vals, system))
             except Exception as exc:
                 out[key] = {**_row(key, vals, batch, worker), **{k: math.nan for k in job.outputs},
                             "status": "build_error", "reason": f"{type(exc).__name__}: {exc}"}
@@ -186,6 +277,51 @@ def run_vmap(job, batches, *, workers):
 _POOLS: dict = {}
 
 
+def compilation_cache_dir() -> str | None:
+    """This process's persistent JAX compilation cache folder (None: no cache)."""
+    import jax
+
+    return jax.config.jax_compilation_cache_dir
+
+
+def use_compilation_cache(path: str | None) -> None:
+    """Make this (worker) process use the persistent compilation cache folder ``path`` of the
+    driver, where that folder exists here (the same machine, or a file system shared with the
+    cluster): a shape compiled by one worker, or by the driver, is then read by the others
+    instead of compiled again, and a worker's own compilations are kept across its batches and
+    studies. Elsewhere the worker keeps its own cache (proleg's default folder)."""
+    import jax
+
+    if not path or not os.path.isdir(path) or jax.config.jax_compilation_cache_dir == path:
+        return
+    jax.config.update("jax_compilation_cache_dir", path)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
+    jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
+    try:  # a cache already opened on another folder is reopened on this one
+        from jax.experimental.compilation_cache import compilation_cache
+
+        compilation_cache.reset_cache()
+    except (ImportError, AttributeError):  # pragma: no cover - older jax
+        pass
+
+
+def _cache_plugin(path):
+    """A Dask WorkerPlugin that runs :func:`use_compilation_cache` on every worker, also on
+    workers that join later."""
+    from distributed.diagnostics.plugin import WorkerPlugin
+
+    class CompilationCache(WorkerPlugin):
+        name = "proleg-compilation-cache"
+
+        def __init__(self, path):
+            self.path = path
+
+        def setup(self, worker):
+            use_compilation_cache(self.path)
+
+    return CompilationCache(path)
+
+
 def process_pool(workers: int):
     """This process's pool of ``workers`` spawned worker processes (JAX is not fork-safe), kept
     between studies and between an optimisation's batches so that each worker imports proleg and
@@ -198,7 +334,8 @@ def process_pool(workers: int):
     if pool is None or getattr(pool, "_broken", False) or getattr(pool, "_shutdown_thread", False):
         if not _POOLS:
             atexit.register(shutdown_pools)
-        pool = _POOLS[workers] = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"))
+        pool = _POOLS[workers] = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"),
+                                                     initializer=use_compilation_cache, initargs=(compilation_cache_dir(),))
     return pool
 
 
@@ -255,10 +392,15 @@ def connect(scheduler=None, *, workers: int = 2, timeout_s: float = DEFAULT_TIME
 
 
 def run_dask(job, batches, *, client):
-    """Each batch a Dask task; a task lost with a worker is rescheduled by Dask."""
+    """Each batch a Dask task; a task lost with a worker is rescheduled by Dask. Every worker
+    first takes the driver's compilation cache folder (:func:`use_compilation_cache`): a
+    shape is compiled by XLA once and read from the cache by every later batch and worker
+    (each batch still traces and lowers its simulation, seconds, as :func:`proleg.sweep`
+    builds its function per call)."""
     import cloudpickle
     from distributed import as_completed
 
+    client.register_plugin(_cache_plugin(compilation_cache_dir()))
     futs = [client.submit(run_payload, cloudpickle.dumps((job, b)), pure=False) for b in batches]
     for f in as_completed(futs):
         yield f.result()

@@ -209,12 +209,18 @@ def to_unit(study, names, vals):
     return np.clip(np.array(out), 0.0, 1.0)
 
 
-def refine(study, start: dict, objective: str, *, direction="minimize", maxiter: int = 20) -> dict:
-    """Refine ``start`` (e.g. the best optuna trial) by L-BFGS-B on the study's continuous
-    parameters (in the unit box of their ranges), with the objective's gradient by
-    ``jax.jacfwd`` through the simulation. Returns {"params", "value", "start_value", "iterations"}."""
+def refine(study, start, objective: str, *, direction="minimize", maxiter: int = 20) -> dict:
+    """Refine ``start`` ({name: value}, or an :class:`OptimizationResult`: its best trial) by
+    L-BFGS-B on the study's continuous parameters (in the unit box of their ranges), with the
+    objective's gradient by ``jax.jacfwd`` through the simulation. Returns {"params", "value",
+    "start_value", "iterations"}."""
     import jax
     from scipy.optimize import minimize
+
+    if isinstance(start, OptimizationResult):
+        if not start.best_params:
+            raise ModelError("refine: the optimisation has no completed trial to start from.")
+        start = start.best_params
 
     if study.kind != "system":
         raise ModelError(f"refine: a {study.kind} study is not differentiable through its {study.kind}; refine needs a System study.")

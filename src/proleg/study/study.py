@@ -73,7 +73,11 @@ class Study:
     Parameters
     ----------
     system_or_builder : System, or a function of the space's parameters (keywords) returning a
-        System (for what changes topology or shape; variants are grouped by compiled shape)
+        System (for what changes topology or geometry). A batch's builds are grouped by their
+        traced simulation (``executors._shape_key``): builds that differ only in parameter
+        values (a link length, a stiffness) share one compiled ``vmap`` batch; a number the
+        compiled code captures (a Motion's function of a builder argument) splits them. Each
+        build costs one trace of its simulation besides its ``assemble``
     space : {name: (lo, hi) | LogRange(lo, hi) | [choices] | fixed value}; names of
         ``system.with_params`` (or the builder's keywords)
     outputs : {name: function(Result) -> float}; an output that raises is recorded in its row
@@ -166,9 +170,11 @@ class Study:
             progress: bool | None = None, on_batch=None) -> pd.DataFrame:
         """Run the design and return its rows (one per variant, in design order).
 
-        ``executor``: "vmap" (default for a System), "processes" (default for a builder) or
-        "dask" (``scheduler``: an address such as "tcp://host:8786" or a ``distributed.Client``;
-        default a LocalCluster of ``workers`` processes). ``store``: a folder; what it holds is
+        ``executor``: "vmap", "processes" or "dask" (``scheduler``: an address such as
+        "tcp://host:8786" or a ``distributed.Client``; default a LocalCluster of ``workers``
+        processes); None or "auto": :func:`~proleg.study.executors.default_executor` ("vmap"
+        for a System, and for a builder on a GPU; "processes" for a builder on the CPU and for a
+        function study). ``store``: a folder; what it holds is
         not run again, what finishes is written batch by batch. ``batch_size`` variants per
         batch (default: on the CPU the pending ones split over the workers, at most 256).
         ``on_batch(rows)`` is called after each batch is stored.
@@ -184,9 +190,10 @@ class Study:
         if "key" not in table.columns:
             table = table.copy()
             table.insert(0, "key", [variant_key({k: r[k] for k in self.space.dims}) for r in table.to_dict("records")])
-        executor = executor or ("processes" if self.kind != "system" else "vmap")
+        if executor is None or executor == "auto":
+            executor = ex.default_executor(self.kind)
         if not isinstance(executor, str) or executor not in EXECUTORS:
-            raise ModelError(f"Study: unknown executor {executor!r}; valid: {list(EXECUTORS)}.")
+            raise ModelError(f"Study: unknown executor {executor!r}; valid: {[*EXECUTORS, 'auto']}.")
         st = Store(store).open(self.definition()) if store is not None else None
         if st is not None:
             st.add_plan(list(table["key"]), label)
@@ -249,8 +256,9 @@ class Study:
 
         return optimize(self, objective, constraints, n_trials, **kw)
 
-    def refine(self, start: dict, objective: str, **kw):
-        """Gradient-based local refinement from ``start`` (:func:`proleg.study.optimize.refine`)."""
+    def refine(self, start, objective: str, **kw):
+        """Gradient-based local refinement from ``start`` (parameters, or the result of
+        :meth:`optimize`: from its best trial) (:func:`proleg.study.optimize.refine`)."""
         from .optimize import refine
 
         return refine(self, start, objective, **kw)
@@ -302,12 +310,13 @@ class _Pick:
 class _Bar:
     """rich progress bar: variants done / total, failures, rate [variants/s] and ETA."""
 
-    def __init__(self, total, label):
+    def __init__(self, total, label, console=None):
         from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
         self.t0, self.done = time.perf_counter(), 0
         self.p = Progress(TextColumn(f"[bold]{label}[/]"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[rate]}"),
-                          TextColumn("[red]{task.fields[failed]}[/]"), TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn())
+                          TextColumn("[red]{task.fields[failed]}[/]"), TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
+                          console=console)
         self.task = self.p.add_task("study", total=total, rate="", failed="")
         self.failed = 0
         self.p.start()

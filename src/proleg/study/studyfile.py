@@ -15,7 +15,7 @@ Example::
       x_end: "r.part('lower').position[-1, 0]"
     simulate: {t_end: 0.2, dt_output: 0.01}
     design: {kind: lhs, n: 64, seed: 1}   # grid (n levels), lhs, sobol, or table: file.csv
-    executor: vmap                   # vmap | processes | dask
+    executor: auto                   # auto | vmap | processes | dask
     scheduler: null                  # tcp://host:8786 for a Dask cluster
     store: results/pendulum-spring   # relative to this file
 
@@ -52,7 +52,7 @@ class StudyFile(BaseModel):
     outputs: dict[str, str]
     simulate: dict[str, Any]
     design: DesignSpec = DesignSpec()
-    executor: Literal["vmap", "processes", "dask"] = "vmap"
+    executor: Literal["auto", "vmap", "processes", "dask"] = "auto"
     scheduler: str | None = None
     store: str | None = None
     batch_size: int | None = Field(None, ge=1)

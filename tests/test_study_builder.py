@@ -1,0 +1,95 @@
+"""Builder studies share compilations: builds that differ only in parameter values (a link
+length, a spring stiffness) are one group — one compilation of the vmapped simulation — and
+every row equals its own ``simulate``; a build whose Motion captures a builder argument (a
+constant of the compiled code) is not merged with the others.
+
+Model: the double pendulum with a tip spring of test_study.py, with the upper link's length
+(its inertia, the elbow, the lower part, the tip and the spring's anchor follow) and the
+spring's stiffness as builder arguments; 0.1 s.
+"""
+
+import logging
+
+import pytest
+
+import proleg as pl
+from proleg.study.executors import _shape_key
+
+KW = dict(t_end=0.1, dt_output=0.01)
+
+
+def pendulum(length, k, amp=None):
+    m = pl.Model("builder_pendulum", gravity=(0, 0, -9.81))
+    up = m.add_part("upper", mass=1.0, inertia=(0.01, 0.09 * length**2, 0.09 * length**2), position=(0.5 * length, 0, 0))
+    lo = m.add_part("lower", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(length + 0.5, 0, 0))
+    m.add_joint(pl.Revolute("shoulder", m.ground, up, at=(0, 0, 0), axis=(0, 1, 0)))
+    m.add_joint(pl.Revolute("elbow", up, lo, at=(length, 0, 0), axis=(0, 1, 0)))
+    tip = m.add_marker(lo, "tip", position=(length + 1, 0, 0))
+    anchor = m.add_marker(m.ground, "anchor", position=(length + 1, 0, -1))
+    m.add_force(pl.SpringDamper("spring", tip, anchor, stiffness=k, damping=0.5, free_length=1.0))
+    if amp is not None:  # the shoulder driven by a law that captures the builder's argument
+        m.add_motion(pl.Motion("swing", m.joint("shoulder"), displacement=lambda t: amp * t**2))
+    return pl.assemble(m)
+
+
+OUTPUTS = {"x_tip": lambda r: r.marker("tip").position[-1, 0], "z_tip": lambda r: r.marker("tip").position[-1, 2],
+           "f_max": lambda r: abs(r.element("spring").force).max()}
+
+
+class _Count(logging.Handler):
+    def __init__(self):
+        super().__init__(logging.DEBUG)
+        self.n = 0
+
+    def emit(self, record):
+        self.n += record.getMessage().startswith("Compiling jit(one) ")
+
+
+def count_sweep_compilations(run):
+    """Run ``run()`` and count the compilations of proleg.sweep's vmapped simulation (``one``):
+    JAX logs "Compiling jit(one) ..." at DEBUG for every compilation request, persistent cache
+    hit or not."""
+    log = logging.getLogger("jax._src.interpreters.pxla")
+    handler, level = _Count(), log.level
+    log.addHandler(handler)
+    log.setLevel(logging.DEBUG)
+    try:
+        out = run()
+    finally:
+        log.removeHandler(handler)
+        log.setLevel(level)
+    return out, handler.n
+
+
+def check_rows_equal_their_simulate(tab, build):
+    for row in tab.to_dict("records"):
+        assert row["status"] == "success", row["reason"]
+        ref = pl.simulate(build(row), progress=False, **KW)
+        expected = {k: float(fn(ref)) for k, fn in OUTPUTS.items()}
+        for k, v in expected.items():  # vmap batch against one run: the same arithmetic, rounding apart
+            assert row[k] == pytest.approx(v, abs=1e-9, rel=1e-9), (k, row)
+        assert row["steps"] == ref.stats["steps"]
+
+
+def test_the_shape_key_sees_captured_constants_not_parameters():
+    a, b, c = pendulum(1.0, 50.0, amp=2.0), pendulum(1.0, 50.0, amp=3.0), pendulum(1.25, 120.0, amp=2.0)
+    assert _shape_key(a, KW) != _shape_key(b, KW)  # amp is a constant of the compiled law
+    assert _shape_key(a, KW) == _shape_key(c, KW)  # length and stiffness are parameters
+
+
+@pytest.mark.slow  # ~1 min of CPU: six builds, their traces and six reference simulations
+def test_builds_differing_in_numbers_share_one_compilation():
+    st = pl.study.Study(pendulum, space={"length": [0.8, 1.0, 1.25], "k": [50.0, 120.0]}, outputs=OUTPUTS, simulate=KW)
+    tab, n_compiled = count_sweep_compilations(lambda: st.run(design="grid", executor="vmap", workers=1, batch_size=6, progress=False))
+    assert len(tab) == 6 and tab["batch"].nunique() == 1
+    assert n_compiled == 1
+    assert tab["x_tip"].nunique() == 6  # six different simulations
+    check_rows_equal_their_simulate(tab, lambda row: pendulum(row["length"], row["k"]))
+
+
+@pytest.mark.slow  # ~1 min of CPU
+def test_a_motion_capturing_a_builder_argument_splits_the_group():
+    st = pl.study.Study(pendulum, space={"length": [1.0, 1.25], "k": 50.0, "amp": [2.0, 3.0]}, outputs=OUTPUTS, simulate=KW)
+    tab, n_compiled = count_sweep_compilations(lambda: st.run(design="grid", executor="vmap", workers=1, batch_size=4, progress=False))
+    assert n_compiled == 2 and tab["batch"].nunique() == 1
+    check_rows_equal_their_simulate(tab, lambda row: pendulum(row["length"], row["k"], row["amp"]))
