@@ -164,3 +164,20 @@ def test_motion_breakpoints_are_stepped_to():
 def test_breakpoints_are_validated():
     with pytest.raises(pl.ModelError, match="lift"):
         pl.Motion("lift", joint="rail", displacement=lambda t: t, breakpoints=("soon",))
+
+
+@pytest.mark.slow  # two compilations of the HyQ leg's step loop (~1 min)
+def test_hal_drop_outputs_do_not_depend_on_their_spacing():
+    """The HyQ leg dropped on the HAL bench (seeds 000/001; bench/dense_output.py's model, 0.2 s,
+    through the foot's impact at ~0.11 s), outputs every 1 ms and every 0.1 ms (ten per step,
+    evaluated in vectorised blocks): the same steps, and at the common times the same states,
+    both being read from the same steps' interpolants (round-off only)."""
+    system = pl.assemble(pl.robots.hyq_leg(joints="rigid", gain="high", drop_height=0.05, actuators="drop"))
+    integ = pl.GeneralizedAlpha(rtol=1e-6, atol=1e-7, dt_max=1e-3)
+    coarse, fine = (pl.simulate(system, t_end=0.2, dt_output=dt, integrator=integ, run=pl.RunOptions(prepare_outputs=False))
+                    for dt in (1e-3, 1e-4))
+    assert fine.stats["steps"] == coarse.stats["steps"] and len(fine.t) == 2001
+    np.testing.assert_allclose(fine.t[::10], coarse.t, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(np.asarray(fine.q)[::10], np.asarray(coarse.q), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(fine.v)[::10], np.asarray(coarse.v), rtol=0, atol=1e-10)
+    np.testing.assert_allclose(np.asarray(fine.w)[::10], np.asarray(coarse.w), rtol=1e-12, atol=1e-12)
