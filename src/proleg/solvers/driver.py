@@ -182,10 +182,11 @@ def advance(dyn, integrator, dopts: DriverOptions, st: StepState, h, out_times, 
     times, only to the events of ``dopts`` and to ``t_stop``.
 
     ``free_running``: one ``lax.while_loop`` of step attempts over all the output times instead,
-    writing the outputs each accepted step passed into their buffer rows, M rows at a time. Under ``jax.vmap`` the
-    lanes then do not wait for each other at every output time (the loop runs as many attempts
-    as the slowest lane needs in all, not the sum over outputs of the slowest lane per interval,
-    ~2× fewer on bench/vmap_batch.py); one lane's work is the same. ``sweep`` uses it.
+    writing the outputs each accepted step passed into their buffer rows, M rows at a time.
+    Under ``jax.vmap`` the lanes then do not wait for each other at every output time (the
+    loop runs as many attempts as the slowest lane needs in all, not the sum over outputs of
+    the slowest lane per interval, ~2× fewer on bench/vmap_batch.py); one lane's work is the
+    same. ``sweep`` uses it.
 
     Returns (state, h, number of outputs reached, buffers, stats, status, fail_time, worst_row,
     last accepted step).
