@@ -15,7 +15,7 @@ import numpy as np
 from ..assembly.coordinates import coordinate_set
 from ..assembly.system import System
 from ..errors import Interrupted, ModelError, SolverError, Status
-from ..solvers.driver import DriverOptions, advance, knot, output_block
+from ..solvers.driver import DriverOptions, advance, knot
 from ..solvers.galpha import GeneralizedAlpha, StepState
 from ..solvers.initial import _consistent_state, consistent_state, initial_z, sample_period  # noqa: F401 (re-exported)
 from .checks import check_simulate
@@ -83,8 +83,9 @@ class RunOptions:
         otherwise return a Result whose ``status``/``message`` say what happened
     on_chunk : callable(Result) called after each chunk (e.g. to write partial results)
     chunk : output times per compiled call: the unit of progress, ``on_chunk`` and
-        interruption. Default: 256, or 256 × the outputs a longest step holds where outputs are
-        denser than the steps (so that 10× the outputs do not cost 10× the calls)
+        interruption. Default: 2048 (256 blocks of ``DriverOptions.out_block`` outputs), every
+        call padded to that length so that all runs of a model share one compiled loop whatever
+        their output times (with ``free_running``: at most 2048, not padded)
     free_running : under ``jax.vmap``, let each variant step through all its output times
         without waiting for the others at each one (solvers/driver.py ``advance``; what
         :func:`proleg.sweep` uses); the same results, ~2× fewer batch iterations
@@ -264,8 +265,6 @@ def simulate(
         sample_period=sample_period(system),
         breakpoints=motion_breakpoints(system),
     )
-    # outputs per vectorised block: those a longest step holds (solvers/driver.py ``advance``)
-    dopts = dataclasses.replace(dopts, out_block=output_block(times, dopts.fixed_step or dopts.dt_max))
     dt_init = ig.dt_init
     integrator = ig.method  # what the compiled step depends on; the options are in dopts
     z0 = initial_z(system)
@@ -292,7 +291,9 @@ def simulate(
 
     out_t = times[1:] if times[0] == t0 else times
     t_stop = jnp.asarray(out_t[-1], jnp.float64)  # steps never go past the last output
-    K = int(min(chunk or 256 * dopts.out_block, max(1, len(out_t))))
+    K = int(chunk or 256 * dopts.out_block)
+    if chunk or free_running:  # the default pads shorter runs: one compilation for all output times
+        K = min(K, max(1, len(out_t)))
     nchunks = int(math.ceil(len(out_t) / K))
     rec = {"q": [q_ic[None]], "v": [v_ic[None]], "w": [jnp.zeros((1, 2))], "z": [z0[None]]}
     rec_t = [np.array([t0])]
