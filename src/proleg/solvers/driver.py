@@ -37,8 +37,9 @@ class DriverOptions:
     breakpoints: tuple = ()  # times [s] where a motion law's derivatives jump (stepped to exactly)
     # Outputs evaluated together, vectorised, from one step's dense output (``advance``). A fixed
     # 8, not one per output spacing, so that runs with other output times share the compiled
-    # loop: 8 rows cost about what 1 does (bench/dense_output.py, 1 ms outputs: 0.36 s CPU with
-    # 8, 0.38 s with 1; 0.1 ms outputs, ten per step: 0.41 s with 8, 0.38 s with 10).
+    # loop: 8 rows cost about what 1 does (bench/dense_output.py's runs, least CPU of 6 at load
+    # ~1.3: 1 ms outputs 0.36 s with 8, 0.38 s with 1; 0.1 ms outputs, ten per step, 0.41 s with
+    # 8, 0.38 s with 10).
     out_block: int = 8
 
 
