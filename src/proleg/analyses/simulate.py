@@ -82,8 +82,10 @@ class RunOptions:
     throw : raise :class:`SolverError` on failure (its ``.result`` holds what was computed);
         otherwise return a Result whose ``status``/``message`` say what happened
     on_chunk : callable(Result) called after each chunk (e.g. to write partial results)
-    chunk : output times per compiled call (default 256): the unit of progress, ``on_chunk``
-        and interruption
+    chunk : output times per compiled call: the unit of progress, ``on_chunk`` and
+        interruption. Default: 2048 (256 blocks of ``DriverOptions.out_block`` outputs), every
+        call padded to that length so that all runs of a model share one compiled loop whatever
+        their output times (with ``free_running``: at most 2048, not padded)
     free_running : under ``jax.vmap``, let each variant step through all its output times
         without waiting for the others at each one (solvers/driver.py ``advance``; what
         :func:`proleg.sweep` uses); the same results, ~2× fewer batch iterations
@@ -97,7 +99,7 @@ class RunOptions:
     progress: bool | None = None
     throw: bool = True
     on_chunk: object = None
-    chunk: int = 256
+    chunk: int | None = None
     free_running: bool = False
     prepare_outputs: bool = True
 
@@ -289,7 +291,9 @@ def simulate(
 
     out_t = times[1:] if times[0] == t0 else times
     t_stop = jnp.asarray(out_t[-1], jnp.float64)  # steps never go past the last output
-    K = int(min(chunk, max(1, len(out_t))))
+    K = int(chunk or 256 * dopts.out_block)
+    if chunk or free_running:  # the default pads shorter runs: one compilation for all output times
+        K = min(K, max(1, len(out_t)))
     nchunks = int(math.ceil(len(out_t) / K))
     rec = {"q": [q_ic[None]], "v": [v_ic[None]], "w": [jnp.zeros((1, 2))], "z": [z0[None]]}
     rec_t = [np.array([t0])]

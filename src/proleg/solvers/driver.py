@@ -22,7 +22,7 @@ import jax.numpy as jnp
 
 from ..errors import Status
 from ..assembly.coordinates import Absolute
-from .galpha import StepOptions, StepState, lu_apply, step
+from .galpha import StepOptions, StepState, lu_apply, rarely, step
 from .initial import kkt_accelerations, sample_controllers
 
 
@@ -35,6 +35,12 @@ class DriverOptions:
     max_steps: int = 2_000_000  # per chunk
     sample_period: float | None = None  # controller clock [s]
     breakpoints: tuple = ()  # times [s] where a motion law's derivatives jump (stepped to exactly)
+    # Outputs evaluated together, vectorised, from one step's dense output (``advance``). A fixed
+    # 8, not one per output spacing, so that runs with other output times share the compiled
+    # loop: 8 rows cost about what 1 does (bench/dense_output.py's runs, least CPU of 6 at load
+    # ~1.3: 1 ms outputs 0.36 s with 8, 0.38 s with 1; 0.1 ms outputs, ten per step, 0.41 s with
+    # 8, 0.38 s with 10).
+    out_block: int = 8
 
 
 # Compiled once per model (the System's topology is static): the first sample of a run, or the
@@ -124,6 +130,18 @@ def dense_output(dyn, a: Knot, b: Knot, t, fac=None):
     return q, v, w, z
 
 
+def dense_outputs(dyn, seg, times, fac=None):
+    """:func:`dense_output` at each of ``times`` (M,) from one step ``seg`` = (a, b), vectorised:
+    one evaluation of the (batched) constraints and two triangular solves with M right-hand
+    sides for the projection, instead of M of each."""
+    return jax.vmap(lambda t: dense_output(dyn, *seg, t, fac))(times)
+
+
+def _unset(shape, dtype):
+    """An output buffer before it is written: NaN (0 for integer states)."""
+    return jnp.full(shape, jnp.nan if jnp.issubdtype(dtype, jnp.inexact) else 0, dtype)
+
+
 def _normalize_parameters(q, v, nb):
     if nb == 0:
         return q, v
@@ -144,22 +162,28 @@ def advance(dyn, integrator, dopts: DriverOptions, st: StepState, h, out_times, 
     accepted step (Knot, Knot) of the previous chunk, whose dense output serves the first
     outputs of this chunk that it already passed (default: none, ``st`` at both ends).
 
-    A ``lax.scan`` over the output times with, inside, a ``lax.while_loop`` of step attempts
-    until the accepted step contains the output time, which is then read from its dense output
-    (:func:`dense_output`): outputs are scan results (no dynamic buffer updates), and under
-    ``jax.vmap`` only the small step state is carried per lane by the inner loop. Steps are
-    never clipped to output times, only to the events of ``dopts`` and to ``t_stop``.
+    A ``lax.scan`` over blocks of ``dopts.out_block`` (M) output times with, inside, a
+    ``lax.while_loop`` of step attempts until the block's last output is reached; after each
+    attempt, the block's outputs that the accepted step reached are read from its dense output
+    at once, vectorised over the M times (:func:`dense_outputs`; skipped when it reached none).
+    Outputs are scan results (no dynamic buffer updates), and under ``jax.vmap`` only the step
+    state and one block are carried per lane by the inner loop. Per output this costs a
+    fraction of one vectorised interpolation and projection, not a loop iteration, a while
+    loop and a projection each (bench/dense_output.py). Steps are never clipped to output
+    times, only to the events of ``dopts`` and to ``t_stop``.
 
     ``free_running``: one ``lax.while_loop`` of step attempts over all the output times instead,
-    writing the outputs each accepted step passed into their buffer rows. Under ``jax.vmap`` the
-    lanes then do not wait for each other at every output time (the loop runs as many attempts
-    as the slowest lane needs in all, not the sum over outputs of the slowest lane per interval,
-    ~2× fewer on bench/vmap_batch.py); one lane's work is the same. ``sweep`` uses it.
+    writing the outputs each accepted step passed into their buffer rows, M rows at a time.
+    Under ``jax.vmap`` the lanes then do not wait for each other at every output time (the
+    loop runs as many attempts as the slowest lane needs in all, not the sum over outputs of
+    the slowest lane per interval, ~2× fewer on bench/vmap_batch.py); one lane's work is the
+    same. ``sweep`` uses it.
 
     Returns (state, h, number of outputs reached, buffers, stats, status, fail_time, worst_row,
     last accepted step).
     """
     K = out_times.shape[0]
+    M = max(1, int(dopts.out_block))
     fixed = dopts.fixed_step is not None
     Ts = dopts.sample_period
     bps = jnp.asarray(sorted(dopts.breakpoints), jnp.float64) if dopts.breakpoints else None
@@ -228,34 +252,38 @@ def advance(dyn, integrator, dopts: DriverOptions, st: StepState, h, out_times, 
         stats = (ns + accept.astype(ns.dtype), nr + (~accept).astype(nr.dtype), nn + iters, nj + built.astype(nj.dtype))
         return st2, jnp.maximum(h_next, dopts.dt_min * 0.5), stats, new_status, ft, worst, ~accept, seg
 
-    def reach(carry, xs):
-        te, valid = xs
-        c, k = carry
+    def emit(c, times, todo, block):
+        """The rows of ``block`` (outputs at ``times``, (M,)) still ``todo`` that the last
+        accepted step reached, from its dense output all at once: (block, rows written)."""
+        new = todo & (c[3] == 0) & reached(c[0].t, times)
 
-        def cond(c):
-            st, status = c[0], c[3]
-            return valid & (status == 0) & ~reached(st.t, te)
+        def fill(block):
+            out = dense_outputs(dyn, c[7], times, c[0].Jfac)
+            return tuple(jnp.where(new.reshape((-1,) + (1,) * (o.ndim - 1)), o, b) for o, b in zip(out, block))
 
-        c = jax.lax.while_loop(cond, attempt, c)
-        status = c[3]
-        k = k + (valid & (status == 0)).astype(k.dtype)
-        return (c, k), dense_output(dyn, *c[7], te, c[0].Jfac)
+        # Most step attempts reach no output when outputs are sparser than the steps.
+        return rarely(jnp.any(new), fill, block, block), new
 
     z0 = jnp.array(0)
     init = (st, jnp.asarray(h, jnp.float64), (z0, z0, z0, z0), jnp.array(0), st.t * 0.0, z0, jnp.array(False), seg)
+    like = (st.q, st.v, st.w, st.z)
+    # Output times in blocks of M, padded with the last time (rows past n_valid are never written).
+    Kb = -(-K // M) * M
+    t_pad = jnp.concatenate([out_times, jnp.full(Kb - K + M, out_times[K - 1])])
     if free_running:
 
         def write(c):
             inner, k, bufs = c
-            te = out_times[k]
-            out = dense_output(dyn, *inner[7], te, inner[0].Jfac)
-            bufs = tuple(b.at[k].set(x) for b, x in zip(bufs, out))
-            return inner, k + 1, bufs
+            todo = k + jnp.arange(M) < n_valid
+            rows = tuple(jax.lax.dynamic_slice_in_dim(b, k, M) for b in bufs)
+            rows, new = emit(inner, jax.lax.dynamic_slice_in_dim(t_pad, k, M), todo, rows)
+            bufs = tuple(jax.lax.dynamic_update_slice_in_dim(b, r, k, 0) for b, r in zip(bufs, rows))
+            return inner, k + jnp.sum(new).astype(k.dtype), bufs
 
         def write_reached(c):
             def more(c):
                 inner, k, _ = c
-                return (k < n_valid) & (inner[3] == 0) & reached(inner[0].t, out_times[jnp.minimum(k, K - 1)])
+                return (k < n_valid) & (inner[3] == 0) & reached(inner[0].t, t_pad[k])
 
             return jax.lax.while_loop(more, write, c)
 
@@ -267,10 +295,29 @@ def advance(dyn, integrator, dopts: DriverOptions, st: StepState, h, out_times, 
             inner, k, bufs = c
             return write_reached((attempt(inner), k, bufs))
 
-        bufs0 = tuple(jnp.full((K,) + x.shape, jnp.nan, x.dtype) for x in (st.q, st.v, st.w, st.z))
+        bufs0 = tuple(_unset((Kb + M,) + x.shape, x.dtype) for x in like)
         c = write_reached((init, z0, bufs0))
         (st, h, stats, status, ft, worst, _, seg), k, bufs = jax.lax.while_loop(cond, body, c)
-        return st, h, k, bufs, stats, status, ft, worst, seg
-    valid = jnp.arange(K) < n_valid
-    ((st, h, stats, status, ft, worst, _, seg), k), bufs = jax.lax.scan(reach, (init, z0), (out_times, valid))
+        return st, h, k, tuple(b[:K] for b in bufs), stats, status, ft, worst, seg
+
+    def reach(carry, xs):
+        times, valid = xs
+        c, k = carry
+        block, done = emit(c, times, valid, tuple(_unset((M,) + x.shape, x.dtype) for x in like))
+
+        def cond(cb):
+            return jnp.any(valid & ~cb[2]) & (cb[0][3] == 0)
+
+        def body(cb):
+            c, block, done = cb
+            c = attempt(c)
+            block, new = emit(c, times, valid & ~done, block)
+            return c, block, done | new
+
+        c, block, done = jax.lax.while_loop(cond, body, (c, block, done))
+        return (c, k + jnp.sum(done).astype(k.dtype)), block
+
+    valid = (jnp.arange(Kb) < n_valid).reshape(-1, M)
+    ((st, h, stats, status, ft, worst, _, seg), k), bufs = jax.lax.scan(reach, (init, z0), (t_pad[:Kb].reshape(-1, M), valid))
+    bufs = tuple(b.reshape((Kb,) + b.shape[2:])[:K] for b in bufs)
     return st, h, k, bufs, stats, status, ft, worst, seg
