@@ -11,6 +11,7 @@ import numpy as np
 
 from ..assembly.constraints import joint_angle, joint_translation
 from ..assembly.system import StateView, System, constraints, kinematic_energy_terms, kinematics
+from ..compile_cache import cached_jit
 from ..errors import ModelError, Status
 from ..spatial.rotation import L_of_p, euler_zyx_deg
 from ..solvers.initial import kkt_accelerations
@@ -492,7 +493,7 @@ def _post_one(system, q, v, t, z):
 # One executable for all the post-processing of a run (one compile per model and output count):
 # simulate() compiles it while the run compiles (prepare_outputs), so the first table costs no
 # second compile.
-post_batch = jax.jit(jax.vmap(_post_one, in_axes=(None, 0, 0, 0, 0)))
+post_batch = cached_jit(jax.vmap(_post_one, in_axes=(None, 0, 0, 0, 0)))
 _marker_batch = jax.jit(jax.vmap(lambda s, q, v: kinematics(s, q, v)[1], in_axes=(None, 0, 0)))
 _residual_batch = jax.jit(jax.vmap(lambda s, q, t: jnp.max(jnp.abs(constraints(s, q, t))), in_axes=(None, 0, 0)))
 _outputs_batch = jax.jit(jax.vmap(_one_outputs, in_axes=(None, 0, 0, 0, 0)))

@@ -15,7 +15,9 @@ import numpy as np
 from ..assembly.coordinates import coordinate_set
 from ..assembly.system import System
 from ..errors import Interrupted, ModelError, SolverError, Status
-from ..solvers.driver import DriverOptions, advance, knot
+from ..compile_cache import cached_jit
+from ..solvers.driver import DriverOptions, knot
+from ..solvers.driver import advance as _advance_jit
 from ..solvers.galpha import GeneralizedAlpha, StepState
 from ..solvers.initial import _consistent_state, consistent_state, initial_z, sample_period  # noqa: F401 (re-exported)
 from .checks import check_simulate
@@ -400,9 +402,9 @@ def _compile_post(system, n: int, z0):
 
     def compile_():
         if dev is None:
-            return post_batch.lower(system, *shapes).compile()
+            return post_batch.compile_for(system, *shapes)
         with jax.default_device(dev):
-            return post_batch.lower(system, *shapes).compile()
+            return post_batch.compile_for(system, *shapes)
 
     return _POST_POOL.submit(compile_)
 
@@ -418,7 +420,7 @@ def _warn_unstable_servos(system, q, v, t0, z0):
         warnings.warn(msg, stacklevel=3)
 
 
-@jax.jit
+@cached_jit
 def _reduced_start(dyn, q, v, qdd, lam, z0):
     """The consistent absolute start (q, v, q̈, λ) in the coordinates ``dyn`` (x, ẋ, ẍ, λ_x) and
     the HHT history term g = Φ_xᵀλ_x − Q = −M ẍ."""
@@ -427,7 +429,9 @@ def _reduced_start(dyn, q, v, qdd, lam, z0):
     return x, xd, xdd, dyn.reduce_multipliers(lam), -dyn.mass_action(x, xdd)
 
 
-_to_absolute = jax.jit(jax.vmap(lambda dyn, x, xd: dyn.absolute(x, xd), in_axes=(None, 0, 0)))
+_to_absolute = cached_jit(jax.vmap(lambda dyn, x, xd: dyn.absolute(x, xd), in_axes=(None, 0, 0)))
+# The integration loop (solvers/driver.py), its trace and lowering kept across processes.
+advance = cached_jit(_advance_jit, static_argnums=(1, 2, 7))
 
 
 def _failure_message(system, status, t, worst):

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..assembly.coordinates import Absolute
 from ..assembly.system import System, constraints, generalized_forces, power_terms
+from ..compile_cache import cached_jit
 from ..errors import ConvergenceError
 
 
@@ -78,7 +79,7 @@ def _ic_positions(system: System, q_user, t0, n_iter: int):
     return q, jnp.max(jnp.abs(constraints(system, q, t0)))
 
 
-@partial(jax.jit, static_argnums=(4,))
+@cached_jit(static_argnums=(4,))
 def _ic(system: System, q_user, v_user, t0, n_iter: int, z0):
     """One compiled initial-conditions analysis: positions (Gauss-Newton), velocities (M-weighted
     projection), a controller sample at t0, accelerations and multipliers (KKT), powers."""
