@@ -97,12 +97,15 @@ system = stage("assemble", lambda: pl.assemble(model))
 result = stage("simulate", lambda: pl.simulate(system, t_end=t_end, dt_output=dt))
 df = stage("to_frame", lambda: result.to_frame())
 total = time.perf_counter() - t0
-print("RESULT " + json.dumps(dict(t_import=t_import, total=total, stages=stages, rows=len(df), cols=len(df.columns), steps=result.stats["steps"])))
+import proleg.compile_cache as cc
+print("RESULT " + json.dumps(dict(t_import=t_import, total=total, stages=stages, rows=len(df), cols=len(df.columns), steps=result.stats["steps"],
+                                  exports={{k: cc.stats[k] for k in ("loaded", "exported", "unkeyed")}})))
 """
 
 TABLE_COLUMNS = [
     "model", "cache", "import → table [s]", "import [s]", "assemble [s]", "simulate [s]", "to_frame [s]",
-    "trace [s]", "lower [s]", "xla [s]", "executables", "to_frame executables", "cache hits", "steps", "table",
+    "trace [s]", "lower [s]", "xla [s]", "executables", "to_frame executables", "cache hits", "traced fns loaded/written",
+    "steps", "table",
 ]
 
 
@@ -122,6 +125,7 @@ def run_table(model: str, env: dict, cache: str) -> dict:
         "trace [s]": tot("trace [s]"), "lower [s]": tot("lower [s]"), "xla [s]": tot("xla [s]"),
         "executables": tot("xla compiles"), "to_frame executables": st["to_frame"]["xla compiles"],
         "cache hits": tot("cache hits"), "steps": r["steps"], "table": f"{r['rows']} × {r['cols']}",
+        "traced fns loaded/written": f"{r['exports']['loaded']}/{r['exports']['exported']}" + (f" ({r['exports']['unkeyed']} unkeyed)" if r["exports"]["unkeyed"] else ""),
     }
 
 
@@ -145,7 +149,8 @@ def main_table(args):
     notes = [
         "Each row is a fresh Python process (cold: empty PROLEG_CACHE_DIR; warm: the cache the cold row filled). "
         "trace/lower/xla = JAX's compile events summed over the stages (xla includes loading from the cache); "
-        "executables = backend compilations or cache loads; to_frame executables = those to_frame triggered (target 0).",
+        "executables = backend compilations or cache loads; to_frame executables = those to_frame triggered (target 0); "
+        "traced fns loaded/written = functions whose trace and lowering proleg.compile_cache loaded from / wrote to disk.",
     ]
     for r in rows:
         tgt = targets.get((r["model"], r["cache"]))

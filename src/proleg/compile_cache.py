@@ -321,11 +321,19 @@ def fingerprint(*objs) -> str:
     return hs.h.hexdigest()
 
 
+def _platform() -> str:
+    """The platform this call compiles for (jax.default_device's, else the default backend's)."""
+    dev = jax.config.jax_default_device
+    if dev is None:
+        return jax.default_backend()
+    return str(getattr(dev, "platform", dev))
+
+
 def _environment_key() -> tuple:
     import jaxlib
 
     cfg = jax.config
-    dev = jax.devices()[0] if cfg.jax_default_device is None else cfg.jax_default_device
+    dev = jax.devices(_platform())[0]
     return (
         "proleg-export-1", source_hash(), sys.version, jax.__version__, jaxlib.__version__,
         getattr(dev, "platform", str(dev)), getattr(dev, "device_kind", ""),
@@ -377,18 +385,24 @@ class CachedJit:
     def compile_for(self, *args):
         """A callable of ``fn``'s (non-static) arguments, compiled for these shapes; ``args`` as in
         a call, arrays or ``jax.ShapeDtypeStruct``."""
-        static, dyn = self._split(args)
         entry = self._entry(args)
         if entry is None:
-            compiled = self.jitted.lower(*args).compile()
-            return compiled
-        return lambda *dyn_args: entry(*jax.tree_util.tree_leaves(dyn_args))
+            return self.jitted.lower(*args).compile()
+        treedef = jax.tree_util.tree_structure(self._split(args)[1])
+
+        def call(*dyn_args):
+            leaves, td = jax.tree_util.tree_flatten(dyn_args)
+            if td != treedef:
+                raise TypeError("compiled for other arguments")
+            return entry(*leaves)
+
+        return call
 
     # -- internals ---------------------------------------------------------------------------
     def _entry(self, args):
         """The compiled flat function for these arguments, or None (plain jit)."""
         path = cache_dir()
-        if path is None:
+        if path is None or _platform() != "cpu":  # single runs go to the CPU (analyses/placement.py)
             return None
         static, dyn = self._split(args)
         leaves, treedef = jax.tree_util.tree_flatten(dyn)
@@ -447,8 +461,9 @@ class CachedJit:
             full = [next(it_s) if i in sidx else next(it_d) for i in range(len(static) + len(dyn))]
             return self.jitted(*full)
 
+        flat.__name__ = flat.__qualname__ = getattr(self.fn, "__name__", "flat")  # JAX's logs name the function
         try:
-            return export.export(jax.jit(flat))(*specs)
+            return export.export(jax.jit(flat), platforms=("cpu",))(*specs)
         except Exception:  # an export limitation (or the user's error, which plain jit raises again)
             return None
 

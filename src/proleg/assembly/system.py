@@ -283,7 +283,7 @@ def initial_coordinates(model: Model):
     q, v = [], []
     for part in model.parts:
         p = p_from_matrix(part.orientation)
-        pd = 0.5 * np.asarray(G_of_p(jnp.asarray(p))).T @ part.angular_velocity
+        pd = 0.5 * G_of_p(np.asarray(p, float)).T @ part.angular_velocity
         q.append(np.concatenate([part.position, p]))
         v.append(np.concatenate([part.velocity, pd]))
     n_eta = sum(p.n_eta for p in model.parts if getattr(p, "is_flexible", False))

@@ -11,15 +11,22 @@ import jax.numpy as jnp
 import numpy as np
 
 
+def _xp(x):
+    """numpy for a NumPy array (evaluated at once, outside jit: no JAX dispatch or compile),
+    else jax.numpy."""
+    return np if isinstance(x, np.ndarray) else jnp
+
+
 def skew(a):
     """Skew matrix ã with ã b = a × b; works on (..., 3)."""
-    a = jnp.asarray(a)
-    z = jnp.zeros_like(a[..., 0])
-    return jnp.stack(
+    xp = _xp(a)
+    a = xp.asarray(a)
+    z = xp.zeros_like(a[..., 0])
+    return xp.stack(
         [
-            jnp.stack([z, -a[..., 2], a[..., 1]], -1),
-            jnp.stack([a[..., 2], z, -a[..., 0]], -1),
-            jnp.stack([-a[..., 1], a[..., 0], z], -1),
+            xp.stack([z, -a[..., 2], a[..., 1]], -1),
+            xp.stack([a[..., 2], z, -a[..., 0]], -1),
+            xp.stack([-a[..., 1], a[..., 0], z], -1),
         ],
         -2,
     )
@@ -27,11 +34,12 @@ def skew(a):
 
 def A_of_p(p):
     """Rotation matrix as the homogeneous quadratic (e0² − eᵀe) I + 2 e eᵀ + 2 e0 ẽ; (..., 4) → (..., 3, 3)."""
+    xp = _xp(p)
     e0 = p[..., 0]
     e = p[..., 1:]
-    eye = jnp.eye(3, dtype=p.dtype)
+    eye = xp.eye(3, dtype=p.dtype)
     return (
-        (e0**2 - jnp.sum(e * e, -1))[..., None, None] * eye
+        (e0**2 - xp.sum(e * e, -1))[..., None, None] * eye
         + 2.0 * e[..., :, None] * e[..., None, :]
         + 2.0 * e0[..., None, None] * skew(e)
     )
@@ -39,9 +47,10 @@ def A_of_p(p):
 
 def G_of_p(p):
     """G(p) = [−e, ẽ + e0 I] (3×4): ω = 2 G ṗ (ground components)."""
+    xp = _xp(p)
     e0 = p[..., 0]
     e = p[..., 1:]
-    return jnp.concatenate([-e[..., :, None], skew(e) + e0[..., None, None] * jnp.eye(3)], -1)
+    return xp.concatenate([-e[..., :, None], skew(e) + e0[..., None, None] * xp.eye(3)], -1)
 
 
 def L_of_p(p):
