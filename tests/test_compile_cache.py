@@ -10,7 +10,6 @@ angle is law(t) exactly (a rheonomic constraint), so each law's result is known 
 import warnings
 
 import jax
-import jax.monitoring as mon
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -26,25 +25,6 @@ RATE = 0.5  # [rad/s], read as a global by law_global
 def cache(tmp_path, monkeypatch):
     monkeypatch.setenv("PROLEG_CACHE_DIR", str(tmp_path))
     return tmp_path / "export"
-
-
-class Traces:
-    """Names of the functions JAX traced to a jaxpr while active."""
-
-    def __init__(self):
-        self.names = []
-
-    def _on(self, event, duration, **kw):
-        if event == "/jax/core/compile/jaxpr_trace_duration":
-            self.names.append(str(kw.get("fun_name", "?")))
-
-    def __enter__(self):
-        mon.register_event_duration_secs_listener(self._on)
-        return self
-
-    def __exit__(self, *exc):
-        mon.unregister_event_duration_listener(self._on)
-        return False
 
 
 def spin(law):
@@ -64,22 +44,23 @@ def law_global(t):
     return RATE * t
 
 
-def test_edited_motion_law_recomputes_identical_model_reuses(cache):
+def test_edited_motion_law_recomputes_identical_model_reuses(cache, jax_events):
+    traces = lambda: jax_events("/jax/core/compile/jaxpr_trace_duration")  # noqa: E731
     law = eval("lambda t: 0.5 * t")  # the same source twice: as if run again in a new process
     before = dict(cc.stats)
-    with Traces() as tr:
+    with traces() as tr:
         a = angle_at_end(spin(law))
     assert "advance" in tr.names and cc.stats["exported"] > before["exported"]
     assert a == pytest.approx(0.5 * T_END, rel=1e-9)
 
     loaded = cc.stats["loaded"]
-    with Traces() as tr:
+    with traces() as tr:
         b = angle_at_end(spin(eval("lambda t: 0.5 * t")))  # a new model, new objects, same content
     assert "advance" not in tr.names and "_ic" not in tr.names  # loaded, not traced
     assert cc.stats["loaded"] > loaded
     assert b == a
 
-    with Traces() as tr:
+    with traces() as tr:
         c = angle_at_end(spin(eval("lambda t: 0.7 * t")))  # the constant edited
     assert "advance" in tr.names
     assert c == pytest.approx(0.7 * T_END, rel=1e-9)
