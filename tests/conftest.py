@@ -62,5 +62,8 @@ def _release_compiled_code():
     """
     yield
     if _memory_maps() > MAX_MAPS:
+        import proleg.compile_cache
+
         jax.clear_caches()
+        proleg.compile_cache.clear()
         gc.collect()

@@ -138,3 +138,14 @@ def test_transformations_bypass_the_cache(cache):
     np.testing.assert_allclose(g, 2.0 * np.cos(1.0), rtol=1e-15)
     v = jax.vmap(lambda x: f(x, 2.0))(jnp.ones((4, 3)))
     np.testing.assert_allclose(v, 2.0 * np.sin(1.0), rtol=1e-15)
+
+
+def test_clear_drops_executables_and_reloads_from_disk(cache):
+    f = cc.cached_jit(scaled, static_argnums=(1,))
+    x = jnp.arange(3.0)
+    a = f(x, 5.0)
+    loaded = cc.stats["loaded"]
+    cc.clear()
+    assert not f._memo
+    np.testing.assert_array_equal(f(x, 5.0), a)
+    assert cc.stats["loaded"] == loaded + 1

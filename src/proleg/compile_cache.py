@@ -43,6 +43,7 @@ import sysconfig
 import threading
 import types
 import warnings
+import weakref
 from collections import OrderedDict
 
 import jax
@@ -360,7 +361,7 @@ class CachedJit:
     arguments (see the module docstring). Call it as ``fn``; :meth:`compile_for` compiles for
     arguments given as arrays or ``jax.ShapeDtypeStruct`` (e.g. in a background thread)."""
 
-    MEMO = 64  # compiled executables kept in this process (each holds its machine code)
+    MEMO = 16  # compiled executables kept per function in this process (each maps its machine code)
 
     def __init__(self, fn, static_argnums=()):
         self.fn = fn
@@ -370,6 +371,7 @@ class CachedJit:
         self._memo: OrderedDict = OrderedDict()
         self._lock = threading.Lock()
         functools.update_wrapper(self, fn)
+        _INSTANCES.add(self)
 
     def _split(self, args):
         static = tuple(args[i] for i in self.static_argnums)
@@ -500,6 +502,17 @@ def _save(file, exported) -> None:
         os.replace(tmp, file)
     except OSError:  # a read-only cache: run without saving
         pass
+
+
+_INSTANCES = weakref.WeakSet()
+
+
+def clear() -> None:
+    """Drop the executables every :func:`cached_jit` function holds in this process (with
+    ``jax.clear_caches()``, e.g. when a long test run approaches the kernel's memory-map limit)."""
+    for f in list(_INSTANCES):
+        with f._lock:
+            f._memo.clear()
 
 
 def cached_jit(fn=None, *, static_argnums=()):
