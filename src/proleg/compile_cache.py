@@ -432,7 +432,7 @@ class CachedJit:
             key = fingerprint(_environment_key(), self.name, self.fn, static, treedef, avals)
         except Unkeyable as exc:
             stats["unkeyed"] += 1
-            stats.setdefault("why_unkeyed", []).append(f"{self.name}: {exc}")
+            stats["why_unkeyed"] = (stats.get("why_unkeyed", []) + [f"{self.name}: {exc}"])[-10:]
             return None
         stem = "".join(c if c.isalnum() or c == "_" else "_" for c in getattr(self.fn, "__name__", "fn"))
         file = os.path.join(path, "export", f"{stem}-{key[:40]}.pkl")

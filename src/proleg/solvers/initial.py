@@ -3,8 +3,6 @@ for accelerations and multipliers (note §5)."""
 
 from __future__ import annotations
 
-from functools import partial
-
 import jax
 import jax.numpy as jnp
 import numpy as np
