@@ -66,7 +66,7 @@ print("RESULT " + json.dumps(out))
 
 CHILD_TABLE = r"""
 import json, sys, time
-t0 = time.perf_counter()
+t0, c0 = time.perf_counter(), time.process_time()
 import jax
 import proleg as pl
 t_import = time.perf_counter() - t0
@@ -97,12 +97,20 @@ system = stage("assemble", lambda: pl.assemble(model))
 result = stage("simulate", lambda: pl.simulate(system, t_end=t_end, dt_output=dt))
 df = stage("to_frame", lambda: result.to_frame())
 total = time.perf_counter() - t0
-print("RESULT " + json.dumps(dict(t_import=t_import, total=total, stages=stages, rows=len(df), cols=len(df.columns), steps=result.stats["steps"])))
+cpu = time.process_time() - c0
+try:
+    import proleg.compile_cache as cc
+    exports = {{k: cc.stats[k] for k in ("loaded", "exported", "unkeyed")}}
+except ImportError:  # a proleg before the compile cache (for a before/after table)
+    exports = {{"loaded": 0, "exported": 0, "unkeyed": 0}}
+print("RESULT " + json.dumps(dict(t_import=t_import, total=total, cpu=cpu, stages=stages, rows=len(df), cols=len(df.columns), steps=result.stats["steps"],
+                                  exports=exports)))
 """
 
 TABLE_COLUMNS = [
-    "model", "cache", "import → table [s]", "import [s]", "assemble [s]", "simulate [s]", "to_frame [s]",
-    "trace [s]", "lower [s]", "xla [s]", "executables", "to_frame executables", "cache hits", "steps", "table",
+    "model", "cache", "import → table [s]", "CPU [s]", "import [s]", "assemble [s]", "simulate [s]", "to_frame [s]",
+    "trace [s]", "lower [s]", "xla [s]", "executables", "to_frame executables", "cache hits", "traced fns loaded/written",
+    "steps", "table",
 ]
 
 
@@ -117,11 +125,12 @@ def run_table(model: str, env: dict, cache: str) -> dict:
     st = r["stages"]
     tot = lambda k: sum(s.get(k, 0) for s in st.values())  # noqa: E731
     return {
-        "model": model, "cache": cache, "import → table [s]": r["total"], "import [s]": r["t_import"],
+        "model": model, "cache": cache, "import → table [s]": r["total"], "CPU [s]": r["cpu"], "import [s]": r["t_import"],
         "assemble [s]": st["assemble"]["wall"], "simulate [s]": st["simulate"]["wall"], "to_frame [s]": st["to_frame"]["wall"],
         "trace [s]": tot("trace [s]"), "lower [s]": tot("lower [s]"), "xla [s]": tot("xla [s]"),
         "executables": tot("xla compiles"), "to_frame executables": st["to_frame"]["xla compiles"],
         "cache hits": tot("cache hits"), "steps": r["steps"], "table": f"{r['rows']} × {r['cols']}",
+        "traced fns loaded/written": f"{r['exports']['loaded']}/{r['exports']['exported']}" + (f" ({r['exports']['unkeyed']} unkeyed)" if r["exports"]["unkeyed"] else ""),
     }
 
 
@@ -145,7 +154,9 @@ def main_table(args):
     notes = [
         "Each row is a fresh Python process (cold: empty PROLEG_CACHE_DIR; warm: the cache the cold row filled). "
         "trace/lower/xla = JAX's compile events summed over the stages (xla includes loading from the cache); "
-        "executables = backend compilations or cache loads; to_frame executables = those to_frame triggered (target 0).",
+        "executables = backend compilations or cache loads; to_frame executables = those to_frame triggered (target 0); "
+        "traced fns loaded/written = functions whose trace and lowering proleg.compile_cache loaded from / wrote to disk; "
+        "CPU = the process's CPU time (all threads), less sensitive to other jobs' load than the wall time.",
     ]
     for r in rows:
         tgt = targets.get((r["model"], r["cache"]))

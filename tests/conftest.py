@@ -8,6 +8,37 @@ import pytest
 
 jax.config.update("jax_enable_x64", True)
 
+class JaxEvents:
+    """Names of the functions behind one of JAX's duration events while active, e.g.
+    ``/jax/core/compile/backend_compile_duration`` (XLA compiles) or
+    ``/jax/core/compile/jaxpr_trace_duration`` (traces)."""
+
+    def __init__(self, event):
+        self.event, self.names = event, []
+
+    def _on(self, event, duration, **kw):
+        if event == self.event:
+            self.names.append(str(kw.get("fun_name", "?")))
+
+    def __enter__(self):
+        import jax.monitoring as mon
+
+        mon.register_event_duration_secs_listener(self._on)
+        return self
+
+    def __exit__(self, *exc):
+        import jax.monitoring as mon
+
+        mon.unregister_event_duration_listener(self._on)
+        return False
+
+
+@pytest.fixture
+def jax_events():
+    """``with jax_events("/jax/core/compile/...") as ev: ...`` then ``ev.names``."""
+    return JaxEvents
+
+
 MAX_MAPS = 40_000  # of the kernel's default vm.max_map_count = 65,530
 
 
@@ -31,5 +62,8 @@ def _release_compiled_code():
     """
     yield
     if _memory_maps() > MAX_MAPS:
+        import proleg.compile_cache
+
         jax.clear_caches()
+        proleg.compile_cache.clear()
         gc.collect()

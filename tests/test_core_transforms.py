@@ -93,3 +93,26 @@ def test_jacfwd_adaptive(system):
     dk = 1e-4 * K0
     d_fd = (float(f(K0 + dk)) - float(f(K0 - dk))) / (2 * dk)
     assert d_ad == pytest.approx(d_fd, rel=1e-3)
+
+
+def test_quaternion_of_a_matrix_matches_scipy():
+    """spatial.rotation.p_from_matrix is SciPy's Rotation.from_matrix in NumPy (scipy.spatial is
+    not imported by assemble): the same quaternion to 1 ulp, e0 ≥ 0, for random rotations, the
+    180° turns (pivot on the diagonal) and slightly non-orthogonal matrices (SVD projection)."""
+    from scipy.spatial.transform import Rotation
+
+    from proleg.spatial.rotation import A_of_p, p_from_matrix
+
+    rng = np.random.default_rng(3)
+    mats = [Rotation.random(random_state=k).as_matrix() for k in range(200)]
+    mats += [np.eye(3), np.diag([1.0, -1, -1]), np.diag([-1.0, 1, -1]), np.diag([-1.0, -1, 1])]
+    mats += [m + 1e-9 * rng.standard_normal((3, 3)) for m in mats[:20]]
+    for m in mats:
+        x, y, z, w = Rotation.from_matrix(m).as_quat()
+        ref = np.array([w, x, y, z]) * (1 if w >= 0 else -1)
+        p = p_from_matrix(m)
+        np.testing.assert_allclose(p, ref, rtol=0, atol=4.5e-16)  # 2 ulp of 1
+        assert p[0] >= 0
+        np.testing.assert_allclose(A_of_p(p), m, atol=1e-8)  # A(p) is the matrix (to its non-orthogonality)
+    with pytest.raises(ValueError, match="determinant"):
+        p_from_matrix(np.diag([1.0, 1.0, -1.0]))

@@ -8,7 +8,6 @@ N/m) from its tip to a ground anchor at its free length: it stays at rest, so th
 is m g and the spring force is zero, closed forms for the table's columns.
 """
 
-import jax.monitoring as mon
 import numpy as np
 import pytest
 
@@ -27,26 +26,9 @@ def system():
     return pl.assemble(model)
 
 
-class BackendCompiles:
-    def __init__(self):
-        self.names = []
-
-    def _on(self, event, duration, **kw):
-        if event == "/jax/core/compile/backend_compile_duration":
-            self.names.append(str(kw.get("fun_name", "?")))
-
-    def __enter__(self):
-        mon.register_event_duration_secs_listener(self._on)
-        return self
-
-    def __exit__(self, *exc):
-        mon.unregister_event_duration_listener(self._on)
-        return False
-
-
-def test_to_frame_after_simulate_compiles_nothing(system):
+def test_to_frame_after_simulate_compiles_nothing(system, jax_events):
     res = pl.simulate(system, t_end=0.05, dt_output=1e-3)
-    with BackendCompiles() as c:
+    with jax_events("/jax/core/compile/backend_compile_duration") as c:
         df = res.to_frame()
         res.joint("pin"), res.element("spring"), res.energy, res.part("rod").acceleration
     assert c.names == []

@@ -7,20 +7,21 @@ _jax.config.update("jax_enable_x64", True)
 
 def _enable_compilation_cache():
     """Persistent XLA compilation cache in the user's cache folder, so a model compiled once is
-    not recompiled by the next process (set PROLEG_CACHE_DIR to move it, or to "" to disable)."""
+    not recompiled by the next process (set PROLEG_CACHE_DIR to move it, or to "" to disable;
+    proleg.compile_cache keeps the traced functions in its export/ folder)."""
     import os
 
-    path = os.environ.get("PROLEG_CACHE_DIR")
-    if path is None:
-        base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-        path = os.path.join(base, "proleg", "jax")
+    from .compile_cache import cache_dir
+
+    path = cache_dir()
     if not path:
         return
     try:
         os.makedirs(path, exist_ok=True)
         if _jax.config.jax_compilation_cache_dir is None:
             _jax.config.update("jax_compilation_cache_dir", path)
-            _jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
+            # 0.1 s: the small functions of a run (planar map back, constraint Jacobian) too.
+            _jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.1)
             _jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
     except (OSError, AttributeError):  # read-only home or an older jax: run without the cache
         pass
@@ -147,5 +148,13 @@ from .model.couplers import JointStop as JointStop
 from .model.couplers import JointFriction as JointFriction
 from .model.forces import RotationalBacklash as RotationalBacklash
 from .model.flexible import FlexibleBody as FlexibleBody
-from . import robots as robots
-from . import study as study
+
+
+def __getattr__(name):
+    """``proleg.robots`` and ``proleg.study`` load on first use: they import pandas and the
+    robots' data, which a model of one's own does not need (``import proleg`` stays short)."""
+    if name in ("robots", "study"):
+        import importlib
+
+        return importlib.import_module(f".{name}", __name__)
+    raise AttributeError(f"module 'proleg' has no attribute '{name}'")

@@ -7,7 +7,6 @@ from dataclasses import dataclass
 import jax
 import jax.numpy as jnp
 import numpy as np
-import scipy.linalg
 
 from ..assembly.system import System, constraints, generalized_forces
 from ..solvers.initial import mass_matrix
@@ -58,6 +57,8 @@ class LinearModel:
         return np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ self.K, -Minv @ self.C]])
 
     def modes(self) -> Modes:
+        import scipy.linalg  # here, not at import proleg (0.6 s)
+
         w2, phi = scipy.linalg.eig(self.K, self.M)
         w2 = np.real(w2)
         order = np.argsort(w2)

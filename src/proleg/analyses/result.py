@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -11,6 +12,7 @@ import numpy as np
 
 from ..assembly.constraints import joint_angle, joint_translation
 from ..assembly.system import StateView, System, constraints, kinematic_energy_terms, kinematics
+from ..compile_cache import cached_jit
 from ..errors import ModelError, Status
 from ..spatial.rotation import L_of_p, euler_zyx_deg
 from ..solvers.initial import kkt_accelerations
@@ -205,22 +207,9 @@ class Result:
         return self._post["outputs"]
 
     def element_units(self):
-        """{group kind: {output: unit}}, read by tracing the outputs once (``jax.eval_shape``:
-        no compilation)."""
-        out = {}
-        sys_ = self.system
-
-        def f(q, v, t, z):
-            bk, mk = kinematics(sys_, q, v)
-            ctx = StateView(sys_.topo, bk, mk, t, z)
-            for g in sys_.topo.groups + sys_.topo.extensions:
-                if len(g) and hasattr(g, "outputs"):
-                    out[g.kind] = {k: unit for k, (val, unit) in g.outputs(sys_.params, mk, t, ctx).items()}
-            return 0.0
-
-        q, v, z = (jax.ShapeDtypeStruct(np.shape(x)[1:], jnp.float64) for x in (self.q, self.v, self.z))
-        jax.eval_shape(f, q, v, jax.ShapeDtypeStruct((), jnp.float64), z)
-        return out
+        """{group kind: {output: unit}}, read by tracing the outputs once per model
+        (``jax.eval_shape``: no compilation; simulate() does it in its outputs thread)."""
+        return element_units(self.system, np.shape(self.z)[1])
 
     def element(self, name) -> ElementResult:
         """Outputs of the force element (or contact, actuator, controller) called ``name``."""
@@ -415,6 +404,30 @@ class Result:
         return f"Result({self.system.topo.name!r}: {len(self.t)} outputs to t = {self.t[-1]:.4g} s, {self.stats['steps']} steps, {self.message})"
 
 
+_UNITS = weakref.WeakKeyDictionary()  # topology → {group kind: {output: unit}}
+
+
+def element_units(system: System, nz: int) -> dict:
+    """{group kind: {output: unit}} of ``system``'s element outputs (``nz``: controller states)."""
+    topo = system.topo
+    if topo in _UNITS:
+        return _UNITS[topo]
+    out = {}
+
+    def f(q, v, t, z):
+        bk, mk = kinematics(system, q, v)
+        ctx = StateView(topo, bk, mk, t, z)
+        for g in topo.groups + topo.extensions:
+            if len(g) and hasattr(g, "outputs"):
+                out[g.kind] = {k: unit for k, (val, unit) in g.outputs(system.params, mk, t, ctx).items()}
+        return 0.0
+
+    q = jax.ShapeDtypeStruct((system.nq,), jnp.float64)
+    jax.eval_shape(f, q, q, jax.ShapeDtypeStruct((), jnp.float64), jax.ShapeDtypeStruct((nz,), jnp.float64))
+    _UNITS[topo] = out
+    return out
+
+
 def _joint_reactions_one(system: System, qk, tk, lk):
     """Reactions on part I of every constraint owner (joints, then motions) at one time, note §5:
     (F, T, F_local, T_local, angle, translation), each (nowner, ...)."""
@@ -492,7 +505,7 @@ def _post_one(system, q, v, t, z):
 # One executable for all the post-processing of a run (one compile per model and output count):
 # simulate() compiles it while the run compiles (prepare_outputs), so the first table costs no
 # second compile.
-post_batch = jax.jit(jax.vmap(_post_one, in_axes=(None, 0, 0, 0, 0)))
+post_batch = cached_jit(jax.vmap(_post_one, in_axes=(None, 0, 0, 0, 0)))
 _marker_batch = jax.jit(jax.vmap(lambda s, q, v: kinematics(s, q, v)[1], in_axes=(None, 0, 0)))
 _residual_batch = jax.jit(jax.vmap(lambda s, q, t: jnp.max(jnp.abs(constraints(s, q, t))), in_axes=(None, 0, 0)))
 _outputs_batch = jax.jit(jax.vmap(_one_outputs, in_axes=(None, 0, 0, 0, 0)))

@@ -15,7 +15,9 @@ import numpy as np
 from ..assembly.coordinates import coordinate_set
 from ..assembly.system import System
 from ..errors import Interrupted, ModelError, SolverError, Status
-from ..solvers.driver import DriverOptions, advance, knot
+from ..compile_cache import cached_jit
+from ..solvers.driver import DriverOptions, knot
+from ..solvers.driver import advance as _advance_jit
 from ..solvers.galpha import GeneralizedAlpha, StepState
 from ..solvers.initial import _consistent_state, consistent_state, initial_z, sample_period  # noqa: F401 (re-exported)
 from .checks import check_simulate
@@ -280,22 +282,26 @@ def simulate(
     if dyn.kind != "absolute":
         q, v, qdd, lam, g0 = _reduced_start(dyn, q, v, qdd, lam, z0)
     n_newton = dyn.nq + dyn.nc
+    # Constants as NumPy arrays: JAX would compile a small executable for each eager op.
+    f64, i32 = np.float64, np.int32
     st = StepState(
-        t=jnp.asarray(t0, jnp.float64), q=q, v=v, a=qdd, qdd=qdd, lam=lam,
-        h_prev=jnp.asarray(1.0, jnp.float64), w=jnp.zeros(2), pw=pw, z=z0, g=g0,
-        Jfac=(jnp.zeros((n_newton, n_newton)), jnp.arange(n_newton, dtype=jnp.int32)), jac_h=jnp.asarray(0.0, jnp.float64), jac_ok=jnp.asarray(False), jac_hold=jnp.asarray(0, jnp.int32), jac_pen=jnp.asarray(0, jnp.int32),
+        t=np.asarray(t0, f64), q=q, v=v, a=qdd, qdd=qdd, lam=lam,
+        h_prev=np.asarray(1.0, f64), w=np.zeros(2), pw=pw, z=z0, g=g0,
+        Jfac=(np.zeros((n_newton, n_newton)), np.arange(n_newton, dtype=i32)), jac_h=np.asarray(0.0, f64),
+        jac_ok=np.asarray(False), jac_hold=np.asarray(0, i32), jac_pen=np.asarray(0, i32),
     )
-    h = jnp.asarray(dt_init if dt_init is not None else (fixed_step or min(1e-4, dopts.dt_max)), jnp.float64)
+    h = np.asarray(dt_init if dt_init is not None else (fixed_step or min(1e-4, dopts.dt_max)), f64)
     st = st._replace(h_prev=h)
     seg = (knot(st), knot(st))  # the last accepted step (dense output); none yet
 
     out_t = times[1:] if times[0] == t0 else times
-    t_stop = jnp.asarray(out_t[-1], jnp.float64)  # steps never go past the last output
+    t_stop = np.asarray(out_t[-1], f64)  # steps never go past the last output
     K = int(chunk or 256 * dopts.out_block)
     if chunk or free_running:  # the default pads shorter runs: one compilation for all output times
         K = min(K, max(1, len(out_t)))
     nchunks = int(math.ceil(len(out_t) / K))
-    rec = {"q": [q_ic[None]], "v": [v_ic[None]], "w": [jnp.zeros((1, 2))], "z": [z0[None]]}
+    host = (lambda x: x) if traced else np.asarray  # a concrete run records NumPy arrays
+    rec = {"q": [host(q_ic)[None]], "v": [host(v_ic)[None]], "w": [np.zeros((1, 2))], "z": [host(z0)[None]]}
     rec_t = [np.array([t0])]
     stats = np.zeros(4, int)
     status, fail_t, worst = Status.SUCCESS, None, None
@@ -308,14 +314,14 @@ def simulate(
         bar.start()
         task = bar.add_task("sim", total=float(t_end - t0), t=t0)
     partial_result = None
-    tr_status, tr_ft, tr_stats = jnp.asarray(0), jnp.asarray(t0, jnp.float64), jnp.zeros(4, jnp.int32)
+    tr_status, tr_ft, tr_stats = np.asarray(0), np.asarray(t0, f64), np.zeros(4, i32)
     try:
         for c in range(nchunks):
             tc = out_t[c * K : (c + 1) * K]
             n_valid = len(tc)
             tpad = np.concatenate([tc, np.full(K - n_valid, tc[-1])])
             st, h, k, bufs, (ns, nr, nn, nj), stat, ft, wr, seg = advance(
-                dyn, integrator, dopts, st, h, jnp.asarray(tpad), n_valid, free_running, t_stop, seg
+                dyn, integrator, dopts, st, h, tpad, n_valid, free_running, t_stop, seg
             )
             if dyn.kind != "absolute":
                 bufs = (*_to_absolute(dyn, bufs[0], bufs[1]), *bufs[2:])
@@ -332,7 +338,7 @@ def simulate(
             stats += np.array([int(ns), int(nr), int(nn), int(nj)])
             rec_t.append(tc[:k])
             for key, b in zip(("q", "v", "w", "z"), bufs):
-                rec[key].append(b[:k])
+                rec[key].append(np.asarray(b)[:k])
             if bar is not None:
                 bar.update(task, completed=float(st.t) - t0, t=float(st.t))
             if int(stat) != 0:
@@ -393,7 +399,7 @@ def _compile_post(system, n: int, z0):
     global _POST_POOL
     from concurrent.futures import ThreadPoolExecutor
 
-    from .result import post_batch
+    from .result import element_units, post_batch
 
     if _POST_POOL is None:
         _POST_POOL = ThreadPoolExecutor(1, thread_name_prefix="proleg-outputs")
@@ -404,9 +410,15 @@ def _compile_post(system, n: int, z0):
 
     def compile_():
         if dev is None:
-            return post_batch.lower(system, *shapes).compile()
-        with jax.default_device(dev):
-            return post_batch.lower(system, *shapes).compile()
+            fn = post_batch.compile_for(system, *shapes)
+        else:
+            with jax.default_device(dev):
+                fn = post_batch.compile_for(system, *shapes)
+        # the rest of what the first table needs, while the run goes on
+        element_units(system, z0.shape[0])
+        import pandas  # noqa: F401  (~0.3 s)
+
+        return fn
 
     return _POST_POOL.submit(compile_)
 
@@ -422,7 +434,7 @@ def _warn_unstable_servos(system, q, v, t0, z0):
         warnings.warn(msg, stacklevel=3)
 
 
-@jax.jit
+@cached_jit
 def _reduced_start(dyn, q, v, qdd, lam, z0):
     """The consistent absolute start (q, v, q̈, λ) in the coordinates ``dyn`` (x, ẋ, ẍ, λ_x) and
     the HHT history term g = Φ_xᵀλ_x − Q = −M ẍ."""
@@ -431,7 +443,9 @@ def _reduced_start(dyn, q, v, qdd, lam, z0):
     return x, xd, xdd, dyn.reduce_multipliers(lam), -dyn.mass_action(x, xdd)
 
 
-_to_absolute = jax.jit(jax.vmap(lambda dyn, x, xd: dyn.absolute(x, xd), in_axes=(None, 0, 0)))
+_to_absolute = cached_jit(jax.vmap(lambda dyn, x, xd: dyn.absolute(x, xd), in_axes=(None, 0, 0)))
+# The integration loop (solvers/driver.py), its trace and lowering kept across processes.
+advance = cached_jit(_advance_jit, static_argnums=(1, 2, 7))
 
 
 def _failure_message(system, status, t, worst):
@@ -453,5 +467,6 @@ def _failure_message(system, status, t, worst):
 
 def _build(system, rec_t, rec, stats, status, msg, integrator):
     t = np.concatenate(rec_t)
-    arrs = {k: jnp.concatenate(v, 0) for k, v in rec.items()}
+    xp = jnp if _any_traced(rec) else np
+    arrs = {k: xp.concatenate(v, 0) for k, v in rec.items()}
     return Result(system, t, arrs["q"], arrs["v"], arrs["w"], arrs["z"], stats=stats, status=status, message=msg, integrator=integrator)

@@ -134,9 +134,10 @@ def _on_plane(E, f):
 
 def _quat_mul(a, b):
     """Euler-parameter product a ⊗ b (A(a ⊗ b) = A(a) A(b)), rows (..., 4)."""
+    xp = np if isinstance(a, np.ndarray) and isinstance(b, np.ndarray) else jnp  # numpy outside jit
     a0, av = a[..., :1], a[..., 1:]
     b0, bv = b[..., :1], b[..., 1:]
-    return jnp.concatenate([a0 * b0 - jnp.sum(av * bv, -1, keepdims=True), a0 * bv + b0 * av + jnp.cross(av, bv)], -1)
+    return xp.concatenate([a0 * b0 - xp.sum(av * bv, -1, keepdims=True), a0 * bv + b0 * av + xp.cross(av, bv)], -1)
 
 
 @jax.tree_util.register_pytree_node_class
@@ -263,7 +264,7 @@ def _revolute_normal(system: System, q):
         return None
     nb = topo.nbody
     qb = np.asarray(q)[: 7 * nb].reshape(nb, 7)
-    A = np.concatenate([np.asarray(A_of_p(jnp.asarray(qb[:, 3:]))), np.eye(3)[None]], 0)  # ground last
+    A = np.concatenate([A_of_p(qb[:, 3:]), np.eye(3)[None]], 0)  # ground last
     mj = np.asarray(topo.joint_marker_j)[idx]
     C = np.asarray(system.params["marker_C"])[mj]
     axes = np.einsum("kij,kj->ki", A[topo.marker_body[mj]], C[:, :, 2])

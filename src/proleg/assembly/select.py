@@ -31,6 +31,10 @@ class Select:
             raise IndexError(f"Select: indices must be in [0, {self.n}), got {self.idx.min()}..{self.idx.max()}.")
         self._table = None
 
+    def _fingerprint_state(self):
+        """What defines the selection (proleg.compile_cache): ``table`` is derived from it."""
+        return self.idx, self.n
+
     @property
     def table(self) -> np.ndarray:
         """(n, kmax) rows k with idx[k] == column, padded with len(idx) (out of range: reads 0)."""

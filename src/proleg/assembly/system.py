@@ -16,6 +16,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..compile_cache import cached_jit
 from ..errors import ModelError, ProlegWarning
 from ..model.model import Model
 from ..spatial.rotation import G_of_p, L_of_p, mtv, mv, p_from_matrix
@@ -275,14 +276,14 @@ def constraint_jacobian(system: System, q, t):
     return jax.jacfwd(lambda qq: constraints(system, qq, t))(q)
 
 
-_jit_constraint_jacobian = jax.jit(constraint_jacobian)
+_jit_constraint_jacobian = cached_jit(constraint_jacobian)
 
 
 def initial_coordinates(model: Model):
     q, v = [], []
     for part in model.parts:
         p = p_from_matrix(part.orientation)
-        pd = 0.5 * np.asarray(G_of_p(jnp.asarray(p))).T @ part.angular_velocity
+        pd = 0.5 * G_of_p(np.asarray(p, float)).T @ part.angular_velocity
         q.append(np.concatenate([part.position, p]))
         v.append(np.concatenate([part.velocity, pd]))
     n_eta = sum(p.n_eta for p in model.parts if getattr(p, "is_flexible", False))
@@ -358,7 +359,7 @@ def _dof_at_assembly(model: Model, topo: Topology, owners, Phi, keep, drop=()) -
 INITIAL_RESIDUAL_WARN = 1e-4  # [m or rad]: above round-off and URDF rounding, below a modelling slip
 
 
-@jax.jit
+@cached_jit
 def _jit_constraints_and_jacobian(system: System, q, t):
     return constraints(system, q, t), constraint_jacobian(system, q, t)
 

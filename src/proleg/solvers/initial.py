@@ -3,14 +3,13 @@ for accelerations and multipliers (note §5)."""
 
 from __future__ import annotations
 
-from functools import partial
-
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from ..assembly.coordinates import Absolute
 from ..assembly.system import System, constraints, generalized_forces, power_terms
+from ..compile_cache import cached_jit
 from ..errors import ConvergenceError
 
 
@@ -58,8 +57,10 @@ def sample_controllers(system, t, q, v, z, first=False):
 
 
 def initial_z(system: System):
-    parts = [jnp.asarray(g.z0(system.params)) for g in system.topo.extensions if hasattr(g, "z0")]
-    return jnp.concatenate(parts) if parts else jnp.zeros(0)
+    parts = [g.z0(system.params) for g in system.topo.extensions if hasattr(g, "z0")]
+    if not parts:
+        return np.zeros(0)  # NumPy: no eager JAX op (each would compile)
+    return jnp.concatenate([jnp.asarray(p) for p in parts])
 
 
 def _ic_positions(system: System, q_user, t0, n_iter: int):
@@ -78,7 +79,7 @@ def _ic_positions(system: System, q_user, t0, n_iter: int):
     return q, jnp.max(jnp.abs(constraints(system, q, t0)))
 
 
-@partial(jax.jit, static_argnums=(4,))
+@cached_jit(static_argnums=(4,))
 def _ic(system: System, q_user, v_user, t0, n_iter: int, z0):
     """One compiled initial-conditions analysis: positions (Gauss-Newton), velocities (M-weighted
     projection), a controller sample at t0, accelerations and multipliers (KKT), powers."""
@@ -105,7 +106,7 @@ def consistent_state(system: System, q_user=None, v_user=None, t0=0.0, z0=None, 
 def _consistent_state(system, q_user, v_user, t0, z0, tol=1e-10):
     q_user = system.params["q_init"] if q_user is None else jnp.asarray(q_user, jnp.float64)
     v_user = system.params["v_init"] if v_user is None else jnp.asarray(v_user, jnp.float64)
-    t0 = jnp.asarray(t0, jnp.float64)
+    t0 = t0 if isinstance(t0, jax.core.Tracer) else np.asarray(t0, np.float64)  # no eager op (compile)
     z0 = initial_z(system) if z0 is None else z0
     q, v, qdd, lam, z, pw, res = _ic(system, q_user, v_user, t0, 8, z0)
     if not isinstance(res, jax.core.Tracer):

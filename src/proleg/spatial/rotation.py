@@ -11,15 +11,22 @@ import jax.numpy as jnp
 import numpy as np
 
 
+def _xp(x):
+    """numpy for a NumPy array (evaluated at once, outside jit: no JAX dispatch or compile),
+    else jax.numpy."""
+    return np if isinstance(x, np.ndarray) else jnp
+
+
 def skew(a):
     """Skew matrix ã with ã b = a × b; works on (..., 3)."""
-    a = jnp.asarray(a)
-    z = jnp.zeros_like(a[..., 0])
-    return jnp.stack(
+    xp = _xp(a)
+    a = xp.asarray(a)
+    z = xp.zeros_like(a[..., 0])
+    return xp.stack(
         [
-            jnp.stack([z, -a[..., 2], a[..., 1]], -1),
-            jnp.stack([a[..., 2], z, -a[..., 0]], -1),
-            jnp.stack([-a[..., 1], a[..., 0], z], -1),
+            xp.stack([z, -a[..., 2], a[..., 1]], -1),
+            xp.stack([a[..., 2], z, -a[..., 0]], -1),
+            xp.stack([-a[..., 1], a[..., 0], z], -1),
         ],
         -2,
     )
@@ -27,11 +34,12 @@ def skew(a):
 
 def A_of_p(p):
     """Rotation matrix as the homogeneous quadratic (e0² − eᵀe) I + 2 e eᵀ + 2 e0 ẽ; (..., 4) → (..., 3, 3)."""
+    xp = _xp(p)
     e0 = p[..., 0]
     e = p[..., 1:]
-    eye = jnp.eye(3, dtype=p.dtype)
+    eye = xp.eye(3, dtype=p.dtype)
     return (
-        (e0**2 - jnp.sum(e * e, -1))[..., None, None] * eye
+        (e0**2 - xp.sum(e * e, -1))[..., None, None] * eye
         + 2.0 * e[..., :, None] * e[..., None, :]
         + 2.0 * e0[..., None, None] * skew(e)
     )
@@ -39,9 +47,10 @@ def A_of_p(p):
 
 def G_of_p(p):
     """G(p) = [−e, ẽ + e0 I] (3×4): ω = 2 G ṗ (ground components)."""
+    xp = _xp(p)
     e0 = p[..., 0]
     e = p[..., 1:]
-    return jnp.concatenate([-e[..., :, None], skew(e) + e0[..., None, None] * jnp.eye(3)], -1)
+    return xp.concatenate([-e[..., :, None], skew(e) + e0[..., None, None] * xp.eye(3)], -1)
 
 
 def L_of_p(p):
@@ -71,11 +80,31 @@ def p_of_A(R):
 
 
 def p_from_matrix(R) -> np.ndarray:
-    """Unit quaternion (scalar first, e0 ≥ 0) of a rotation matrix (numpy, outside jit)."""
-    from scipy.spatial.transform import Rotation
+    """Unit quaternion (scalar first, e0 ≥ 0) of a rotation matrix (numpy, outside jit).
 
-    x, y, z, w = Rotation.from_matrix(np.asarray(R, dtype=float)).as_quat()
-    p = np.array([w, x, y, z])
+    SciPy's ``Rotation.from_matrix`` in NumPy (importing scipy.spatial costs ~0.5 s of a first
+    result): a matrix that is not orthogonal to 1e-12 is first replaced by the nearest rotation
+    (U Vᵀ of its SVD), then Shepperd's formula with the largest pivot (diagonal or trace).
+    """
+    m = np.asarray(R, dtype=float)
+    if not np.linalg.det(m) > 0:
+        raise ValueError(f"Non-positive determinant (left-handed or null coordinate frame) in rotation matrix {m}.")
+    if not np.allclose(m @ m.T, np.eye(3), rtol=0.0, atol=1e-12):
+        U, _, Vt = np.linalg.svd(m)
+        m = U @ Vt
+    tr = m[0, 0] + m[1, 1] + m[2, 2]
+    k = int(np.argmax([m[0, 0], m[1, 1], m[2, 2], tr]))
+    x = np.empty(4)  # (x, y, z, w) as SciPy
+    if k == 3:
+        x[:] = m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1], 1 + tr
+    else:
+        i, j, l = k, (k + 1) % 3, (k + 2) % 3
+        x[i] = 1 - tr + 2 * m[i, i]
+        x[j] = m[j, i] + m[i, j]
+        x[l] = m[l, i] + m[i, l]
+        x[3] = m[l, j] - m[j, l]
+    x /= np.linalg.norm(x)
+    p = np.array([x[3], x[0], x[1], x[2]])
     return p if p[0] >= 0 else -p
 
 

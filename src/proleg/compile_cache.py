@@ -1,0 +1,522 @@
+"""Compiled functions kept across processes: traced and lowered once per model, not per process.
+
+JAX's persistent compilation cache (set up by ``proleg/__init__.py`` in ``PROLEG_CACHE_DIR``)
+saves the XLA backend compile on a warm start, but every new process still traces the model's
+functions to a jaxpr and lowers it to StableHLO before it can look the executable up, and for a
+simulation that is most of a warm start (bench/compile_cache.py --table). :func:`cached_jit`
+wraps a function like ``jax.jit`` and, for concrete arguments, keeps the lowered function on
+disk (``jax.export``) under a key of everything the traced computation depends on; a later
+process with the same key loads it, and XLA finds the executable in the persistent cache.
+
+The key (:func:`fingerprint`) must change whenever the traced computation can: it hashes
+
+- proleg's own source files (:func:`source_hash`) and the versions of Python, jax and jaxlib,
+  the backend, and the JAX options that change tracing (x64, promotion, matmul precision);
+- the wrapped function's name, the static arguments, and the structure of the pytree arguments
+  with its static data (a System's topology: the Model with its parts, elements, numbers and
+  the user's Python functions), with the shape and dtype of every array leaf;
+- every user function met on the way by its code (bytecode, constants, nested code), default
+  arguments, closure cells and the module globals it reads, recursively.
+
+What cannot be hashed for sure (a module that is neither the standard library nor an installed
+package nor proleg, an object of an unknown extension type) makes the whole key unknown, and
+the call is an ordinary ``jax.jit`` call: when in doubt, miss. A cache entry that cannot be
+read is ignored with a :class:`~proleg.errors.ProlegWarning` and rewritten. Under tracing
+(``jit``, ``vmap``, ``grad`` of a caller) the wrapper is plain ``jax.jit``.
+
+``PROLEG_CACHE_DIR=""`` turns this cache off with JAX's; entries live in its ``export/``
+folder. ``proleg.compile_cache.stats`` counts traces (misses) and loads (hits) in this process.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import functools
+import hashlib
+import os
+import pickle
+import re
+import struct
+import sys
+import sysconfig
+import threading
+import types
+import warnings
+import weakref
+from collections import OrderedDict
+
+import jax
+import numpy as np
+
+_PKG_DIR = os.path.dirname(os.path.abspath(__file__))
+stats = {"exported": 0, "loaded": 0, "unkeyed": 0, "corrupt": 0}
+
+
+def cache_dir() -> str | None:
+    """proleg's persistent-cache folder: ``PROLEG_CACHE_DIR``, else ``$XDG_CACHE_HOME/proleg/jax``
+    (``~/.cache/proleg/jax``); None when ``PROLEG_CACHE_DIR=""`` turns caching off."""
+    path = os.environ.get("PROLEG_CACHE_DIR")
+    if path is None:
+        base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+        path = os.path.join(base, "proleg", "jax")
+    return path or None
+
+
+@functools.lru_cache(maxsize=1)
+def source_hash() -> str:
+    """sha256 of every ``.py`` file of the proleg package (path and content)."""
+    h = hashlib.sha256()
+    for root, dirs, files in os.walk(_PKG_DIR):
+        dirs.sort()
+        for f in sorted(files):
+            if f.endswith(".py"):
+                p = os.path.join(root, f)
+                h.update(os.path.relpath(p, _PKG_DIR).encode())
+                with open(p, "rb") as fh:
+                    h.update(hashlib.sha256(fh.read()).digest())
+    return h.hexdigest()
+
+
+class Unkeyable(Exception):
+    """An object :func:`fingerprint` cannot hash for sure (the cache then misses)."""
+
+
+def _stable_roots() -> tuple[str, ...]:
+    paths = sysconfig.get_paths()
+    return tuple(os.path.realpath(paths[k]) for k in ("stdlib", "platstdlib", "purelib", "platlib") if k in paths)
+
+
+_STABLE = _stable_roots()
+
+
+def _module_token(mod: types.ModuleType) -> tuple:
+    """A module a function reads: proleg's (covered by source_hash), the standard library or an
+    installed package (name and version); anything else (a user's module, whose attributes may
+    change) is unkeyable."""
+    name = mod.__name__
+    top = name.split(".")[0]
+    if top == "proleg":
+        return ("module", name)
+    if top in sys.builtin_module_names or top in getattr(sys, "stdlib_module_names", ()):
+        return ("module", name)
+    f = getattr(mod, "__file__", None)
+    if f and os.path.realpath(f).startswith(_STABLE):
+        return ("module", name, str(getattr(sys.modules.get(top), "__version__", "")))
+    raise Unkeyable(f"module {name}")
+
+
+def _stable_module(modname) -> bool:
+    if not isinstance(modname, str):
+        return False
+    mod = sys.modules.get(modname)
+    if mod is None:
+        return False
+    try:
+        _module_token(mod)
+    except Unkeyable:
+        return False
+    return modname.split(".")[0] != "__main__"
+
+
+class _Hasher:
+    """Deterministic structural hash of static data and user code (see the module docstring)."""
+
+    def __init__(self):
+        self.h = hashlib.sha256()
+        self.seen: dict[int, int] = {}  # id → visit index (cycles and shared objects)
+        self.keep = []  # keep visited objects alive so ids stay unique
+
+    def put(self, *parts):
+        for p in parts:
+            b = p if isinstance(p, bytes) else str(p).encode()
+            self.h.update(struct.pack("<Q", len(b)))
+            self.h.update(b)
+
+    def visit(self, x):  # noqa: C901 (one dispatch table)
+        if x is None or isinstance(x, (bool, int, float, complex, str, bytes)):
+            self.put(type(x).__name__, repr(x))
+            return
+        if isinstance(x, enum.Enum):
+            self.put("enum", type(x).__module__, type(x).__qualname__, x.name)
+            return
+        k = id(x)
+        if k in self.seen:
+            self.put("ref", self.seen[k])
+            return
+        self.seen[k] = len(self.seen)
+        self.keep.append(x)
+        if hasattr(type(x), "_fingerprint_state"):  # a class that says what defines it (not its caches)
+            self.visit_type(type(x))
+            self.visit(x._fingerprint_state())
+        elif type(x) is object:  # a sentinel: no state, compared by identity
+            self.put("sentinel")
+        elif isinstance(x, np.generic):
+            self.put("npscalar", x.dtype.str, x.tobytes())
+        elif isinstance(x, np.ndarray):
+            self.put("ndarray", x.dtype.str, x.shape)
+            if x.dtype.hasobject:
+                for e in x.ravel():
+                    self.visit(e)
+            else:
+                self.put(np.ascontiguousarray(x).tobytes())
+        elif isinstance(x, jax.Array):
+            if isinstance(x, jax.core.Tracer):
+                raise Unkeyable("a traced array in static data")
+            self.visit(np.asarray(x))
+        elif isinstance(x, (tuple, list)):
+            self.put(type(x).__qualname__, len(x))
+            if type(x) not in (tuple, list):
+                self.visit_type(type(x))
+            for e in x:
+                self.visit(e)
+        elif isinstance(x, dict):
+            self.put(type(x).__qualname__, len(x))
+            if type(x) is not dict:
+                self.visit_type(type(x))
+            for kk, v in x.items():
+                self.visit(kk)
+                self.visit(v)
+        elif isinstance(x, (set, frozenset)):
+            subs = sorted(fingerprint(e) for e in x)
+            self.put(type(x).__qualname__, *subs)
+        elif isinstance(x, types.ModuleType):
+            self.put(*_module_token(x))
+        elif isinstance(x, type):
+            self.visit_type(x)
+        elif isinstance(x, functools.partial):
+            self.put("partial")
+            self.visit(x.func)
+            self.visit(x.args)
+            self.visit(x.keywords)
+        elif isinstance(x, types.MethodType):
+            self.put("method")
+            self.visit(x.__func__)
+            self.visit(x.__self__)
+        elif isinstance(x, types.FunctionType):
+            self.visit_function(x)
+        elif isinstance(x, types.CodeType):
+            self.visit_code(x)
+        elif isinstance(x, (types.BuiltinFunctionType, np.ufunc)):
+            mod = getattr(x, "__module__", None) or getattr(getattr(x, "__self__", None), "__name__", None)
+            if isinstance(x, np.ufunc):
+                mod = "numpy"
+            if not _stable_module(mod) and mod != "builtins":
+                raise Unkeyable(f"builtin {x!r}")
+            self.put("builtin", mod, getattr(x, "__qualname__", x.__name__))
+        elif isinstance(x, CachedJit):
+            self.put("cached_jit", x.static_argnums)
+            self.visit(x.fn)
+        elif callable(x) and hasattr(x, "__wrapped__") and hasattr(x, "lower"):  # jax.jit objects
+            self.put("jit", type(x).__qualname__)
+            self.visit(x.__wrapped__)
+        elif isinstance(x, np.dtype):
+            self.put("dtype", x.str)
+        elif isinstance(x, re.Pattern):
+            self.put("re", x.pattern, x.flags)
+        elif isinstance(x, (slice, range)):
+            self.put(type(x).__name__)
+            self.visit((x.start, x.stop, x.step))
+        elif isinstance(x, jax.tree_util.PyTreeDef):
+            self.visit_treedef(x)
+        elif isinstance(x, jax.ShapeDtypeStruct):
+            self.put("sds", x.shape, np.dtype(x.dtype).str, getattr(x, "weak_type", False))
+        elif dataclasses.is_dataclass(x) or hasattr(x, "__dict__") or hasattr(type(x), "__slots__"):
+            self.visit_object(x)
+        else:
+            raise Unkeyable(f"object of type {type(x).__module__}.{type(x).__qualname__}")
+
+    def visit_type(self, t: type):
+        mod = t.__module__
+        self.put("type", mod, t.__qualname__)
+        if mod.split(".")[0] == "proleg" or _stable_module(mod) or mod == "builtins":
+            return
+        if id(t) in self.seen:
+            self.put("ref", self.seen[id(t)])
+            return
+        self.seen[id(t)] = len(self.seen)
+        self.keep.append(t)
+        for b in t.__mro__[1:]:
+            self.visit_type(b)
+        for name, v in t.__dict__.items():
+            if name in ("__dict__", "__weakref__", "__doc__", "__module__", "__qualname__"):
+                continue
+            self.put(name)
+            if isinstance(v, (staticmethod, classmethod)):
+                v = v.__func__
+            if isinstance(v, property):
+                v = (v.fget, v.fset)
+            try:
+                self.visit(v)
+            except Unkeyable:
+                if isinstance(v, (types.FunctionType, tuple)):
+                    raise
+                self.put("unhashed attribute")  # a descriptor or slot member: its values are visited per object
+
+    def visit_object(self, x):
+        self.visit_type(type(x))
+        d = getattr(x, "__dict__", None)
+        if d is not None:
+            self.visit({k: v for k, v in d.items()})
+        for cls in type(x).__mro__:
+            for s in cls.__dict__.get("__slots__", ()):
+                if s in ("__dict__", "__weakref__"):
+                    continue
+                self.put("slot", s)
+                self.visit(getattr(x, s, "<unset>"))
+
+    def visit_function(self, f: types.FunctionType):
+        mod = f.__module__ or ""
+        self.put("function", mod, f.__qualname__)
+        library = mod.split(".")[0] != "proleg" and _stable_module(mod)
+        if library:  # an installed package's function (e.g. jax.vmap's wrapper): name and version
+            self.put(*_module_token(sys.modules[mod]))
+        else:
+            self.visit_code(f.__code__)
+        self.visit(f.__defaults__)
+        self.visit(f.__kwdefaults__)
+        if f.__closure__:
+            for c in f.__closure__:
+                try:
+                    self.visit(c.cell_contents)
+                except ValueError:  # empty cell
+                    self.put("empty cell")
+        if library or mod.split(".")[0] == "proleg":
+            return  # module-level names of proleg's code are in source_hash; a package's, in its version
+        g = f.__globals__
+        for name in sorted(_global_names(f.__code__)):
+            if name in g:
+                self.put("global", name)
+                self.visit(g[name])
+
+    def visit_code(self, c: types.CodeType):
+        self.put("code", c.co_name, c.co_argcount, c.co_kwonlyargcount, c.co_flags, c.co_code, c.co_names, c.co_varnames, c.co_freevars)
+        for k in c.co_consts:
+            self.visit(k)
+
+    def visit_treedef(self, td):
+        self.put("treedef", td.num_leaves, td.num_nodes)
+        nd = td.node_data()
+        if nd is not None:
+            t, aux = nd
+            self.visit_type(t)
+            self.visit(aux)
+        for ch in td.children():
+            self.visit_treedef(ch)
+
+
+def _global_names(code: types.CodeType) -> set:
+    names = set(code.co_names)
+    for k in code.co_consts:
+        if isinstance(k, types.CodeType):
+            names |= _global_names(k)
+    return names
+
+
+def fingerprint(*objs) -> str:
+    """sha256 hex digest of ``objs`` (static data, pytree structures, user functions); raises
+    :class:`Unkeyable` for what cannot be hashed for sure."""
+    hs = _Hasher()
+    for o in objs:
+        hs.visit(o)
+    return hs.h.hexdigest()
+
+
+def _platform() -> str:
+    """The platform this call compiles for (jax.default_device's, else the default backend's)."""
+    dev = jax.config.jax_default_device
+    if dev is None:
+        return jax.default_backend()
+    return str(getattr(dev, "platform", dev))
+
+
+def _environment_key() -> tuple:
+    import jaxlib
+
+    cfg = jax.config
+    dev = jax.devices(_platform())[0]
+    return (
+        "proleg-export-1", source_hash(), sys.version, jax.__version__, jaxlib.__version__,
+        getattr(dev, "platform", str(dev)), getattr(dev, "device_kind", ""),
+        cfg.jax_enable_x64, cfg.jax_numpy_rank_promotion, cfg.jax_numpy_dtype_promotion,
+        str(cfg.jax_default_matmul_precision), os.environ.get("XLA_FLAGS", ""),
+    )
+
+
+def _aval(x) -> tuple:
+    """(shape, dtype, weak type) of a leaf as JAX will see it; TypeError for other leaves."""
+    if isinstance(x, (jax.ShapeDtypeStruct, jax.Array)):
+        return (tuple(x.shape), np.dtype(x.dtype).str, bool(getattr(x, "weak_type", False)))
+    if isinstance(x, (np.ndarray, np.generic)):
+        return (tuple(x.shape), np.dtype(jax.dtypes.canonicalize_dtype(x.dtype)).str, False)
+    if isinstance(x, bool):
+        return ((), np.dtype(bool).str, False)
+    if isinstance(x, (int, float, complex)):
+        return ((), np.dtype(jax.dtypes.canonicalize_dtype(type(x))).str, True)
+    raise TypeError(f"leaf of type {type(x).__name__}")
+
+
+class CachedJit:
+    """``jax.jit(fn, static_argnums=...)`` whose trace and lowering is kept on disk for concrete
+    arguments (see the module docstring). Call it as ``fn``; :meth:`compile_for` compiles for
+    arguments given as arrays or ``jax.ShapeDtypeStruct`` (e.g. in a background thread)."""
+
+    MEMO = 16  # compiled executables kept per function in this process (each maps its machine code)
+
+    def __init__(self, fn, static_argnums=()):
+        self.fn = fn
+        self.static_argnums = tuple(static_argnums)
+        self.jitted = fn if hasattr(fn, "lower") else jax.jit(fn, static_argnums=self.static_argnums)
+        self.name = f"{getattr(fn, '__module__', '?')}.{getattr(fn, '__qualname__', getattr(fn, '__name__', '?'))}"
+        self._memo: OrderedDict = OrderedDict()
+        self._lock = threading.Lock()
+        functools.update_wrapper(self, fn)
+        _INSTANCES.add(self)
+
+    def _split(self, args):
+        static = tuple(args[i] for i in self.static_argnums)
+        dyn = tuple(a for i, a in enumerate(args) if i not in self.static_argnums)
+        return static, dyn
+
+    def __call__(self, *args):
+        entry = self._entry(args)
+        if entry is None:
+            return self.jitted(*args)
+        return entry(*jax.tree_util.tree_leaves(self._split(args)[1]))
+
+    def compile_for(self, *args):
+        """A callable of ``fn``'s (non-static) arguments, compiled for these shapes; ``args`` as in
+        a call, arrays or ``jax.ShapeDtypeStruct``."""
+        entry = self._entry(args)
+        if entry is None:
+            return self.jitted.lower(*args).compile()
+        treedef = jax.tree_util.tree_structure(self._split(args)[1])
+
+        def call(*dyn_args):
+            leaves, td = jax.tree_util.tree_flatten(dyn_args)
+            if td != treedef:
+                raise TypeError("compiled for other arguments")
+            return entry(*leaves)
+
+        return call
+
+    # -- internals ---------------------------------------------------------------------------
+    def _entry(self, args):
+        """The compiled flat function for these arguments, or None (plain jit)."""
+        path = cache_dir()
+        if path is None or _platform() != "cpu":  # single runs go to the CPU (analyses/placement.py)
+            return None
+        static, dyn = self._split(args)
+        leaves, treedef = jax.tree_util.tree_flatten(dyn)
+        if any(isinstance(x, jax.core.Tracer) for x in leaves) or any(isinstance(s, jax.core.Tracer) for s in jax.tree_util.tree_leaves(static)):
+            return None
+        try:
+            avals = tuple(_aval(x) for x in leaves)
+            mkey = (treedef, static, avals)
+            hash(mkey)
+        except TypeError:
+            return None
+        with self._lock:
+            if mkey in self._memo:
+                self._memo.move_to_end(mkey)
+                return self._memo[mkey]
+        entry = self._build(path, static, treedef, avals)
+        with self._lock:
+            self._memo[mkey] = entry
+            while len(self._memo) > self.MEMO:
+                self._memo.popitem(last=False)
+        return entry
+
+    def _build(self, path, static, treedef, avals):
+        try:
+            key = fingerprint(_environment_key(), self.name, self.fn, static, treedef, avals)
+        except Unkeyable as exc:
+            stats["unkeyed"] += 1
+            stats["why_unkeyed"] = (stats.get("why_unkeyed", []) + [f"{self.name}: {exc}"])[-10:]
+            return None
+        stem = "".join(c if c.isalnum() or c == "_" else "_" for c in getattr(self.fn, "__name__", "fn"))
+        file = os.path.join(path, "export", f"{stem}-{key[:40]}.pkl")
+        specs = [jax.ShapeDtypeStruct(s, np.dtype(d), weak_type=w) for s, d, w in avals]
+        exported = _load(file)
+        if exported is not None:
+            try:
+                compiled = jax.jit(exported.call).lower(*specs).compile()
+                stats["loaded"] += 1
+                return compiled
+            except Exception as exc:  # an entry that unpickled into something unusable
+                _warn_corrupt(file, exc)
+        exported = self._export(static, treedef, specs)
+        if exported is None:
+            return None
+        _save(file, exported)
+        stats["exported"] += 1
+        return jax.jit(exported.call).lower(*specs).compile()
+
+    def _export(self, static, treedef, specs):
+        from jax import export
+
+        sidx = self.static_argnums
+
+        def flat(*lv):
+            dyn = list(jax.tree_util.tree_unflatten(treedef, lv))
+            it_s, it_d = iter(static), iter(dyn)
+            full = [next(it_s) if i in sidx else next(it_d) for i in range(len(static) + len(dyn))]
+            return self.jitted(*full)
+
+        flat.__name__ = flat.__qualname__ = getattr(self.fn, "__name__", "flat")  # JAX's logs name the function
+        try:
+            return export.export(jax.jit(flat), platforms=("cpu",))(*specs)
+        except Exception:  # an export limitation (or the user's error, which plain jit raises again)
+            return None
+
+
+def _load(file):
+    if not os.path.exists(file):
+        return None
+    try:
+        with open(file, "rb") as fh:
+            return pickle.load(fh)
+    except Exception as exc:  # a truncated or foreign file: recompute and overwrite it
+        _warn_corrupt(file, exc)
+        return None
+
+
+def _warn_corrupt(file, exc) -> None:
+    from .errors import ProlegWarning
+
+    stats["corrupt"] += 1
+    warnings.warn(f"proleg compile cache: ignoring unreadable entry {file} ({type(exc).__name__}: {exc}); "
+                  "it is recomputed. Delete the folder to clear the cache.", ProlegWarning, stacklevel=6)
+
+
+def _save(file, exported) -> None:
+    try:
+        blob = pickle.dumps(dataclasses.replace(exported, _get_vjp=None))
+    except Exception:  # an output structure that does not pickle: keep it in this process only
+        return
+    try:
+        os.makedirs(os.path.dirname(file), exist_ok=True)
+        tmp = f"{file}.{os.getpid()}.{threading.get_ident()}.tmp"
+        with open(tmp, "wb") as fh:
+            fh.write(blob)
+        os.replace(tmp, file)
+    except OSError:  # a read-only cache: run without saving
+        pass
+
+
+_INSTANCES = weakref.WeakSet()
+
+
+def clear() -> None:
+    """Drop the executables every :func:`cached_jit` function holds in this process (with
+    ``jax.clear_caches()``, e.g. when a long test run approaches the kernel's memory-map limit)."""
+    for f in list(_INSTANCES):
+        with f._lock:
+            f._memo.clear()
+
+
+def cached_jit(fn=None, *, static_argnums=()):
+    """Decorator: :class:`CachedJit` (``jax.jit`` plus the on-disk cache of the lowered function)."""
+    if fn is None:
+        return lambda f: CachedJit(f, static_argnums)
+    return CachedJit(fn, static_argnums)

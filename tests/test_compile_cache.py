@@ -1,0 +1,151 @@
+"""The on-disk cache of traced functions (proleg/compile_cache.py, issue 20 item 2): a warm start
+reuses a model's traced and lowered simulate only when nothing the computation depends on has
+changed. A stale hit would be a silent wrong answer, so the tests edit what a user edits (a
+Motion law's constant, a global it reads, a closure value) and check that the answer follows.
+
+Model: a disk on a revolute joint about z driven by ``Motion(displacement=law)``: the joint
+angle is law(t) exactly (a rheonomic constraint), so each law's result is known in closed form.
+"""
+
+import warnings
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import proleg as pl
+import proleg.compile_cache as cc
+
+T_END = 0.2
+RATE = 0.5  # [rad/s], read as a global by law_global
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("PROLEG_CACHE_DIR", str(tmp_path))
+    return tmp_path / "export"
+
+
+def spin(law):
+    model = pl.Model("spin", gravity=(0, 0, 0))
+    disk = model.add_part("disk", 1.0, (0.01, 0.01, 0.02), (0, 0, 0))
+    model.add_joint(pl.Revolute("axle", disk, model.ground, at=(0, 0, 0), axis=(0, 0, 1)))
+    model.add_motion(pl.Motion("drive", joint="axle", displacement=law))
+    return pl.assemble(model)
+
+
+def angle_at_end(system):
+    res = pl.simulate(system, t_end=T_END, dt_output=0.1, coordinates="absolute", run=pl.RunOptions(prepare_outputs=False))
+    return float(res.joint("axle").angle[-1])
+
+
+def law_global(t):
+    return RATE * t
+
+
+def test_edited_motion_law_recomputes_identical_model_reuses(cache, jax_events):
+    traces = lambda: jax_events("/jax/core/compile/jaxpr_trace_duration")  # noqa: E731
+    law = eval("lambda t: 0.5 * t")  # the same source twice: as if run again in a new process
+    before = dict(cc.stats)
+    with traces() as tr:
+        a = angle_at_end(spin(law))
+    assert "advance" in tr.names and cc.stats["exported"] > before["exported"]
+    assert a == pytest.approx(0.5 * T_END, rel=1e-9)
+
+    loaded = cc.stats["loaded"]
+    with traces() as tr:
+        b = angle_at_end(spin(eval("lambda t: 0.5 * t")))  # a new model, new objects, same content
+    assert "advance" not in tr.names and "_ic" not in tr.names  # loaded, not traced
+    assert cc.stats["loaded"] > loaded
+    assert b == a
+
+    with traces() as tr:
+        c = angle_at_end(spin(eval("lambda t: 0.7 * t")))  # the constant edited
+    assert "advance" in tr.names
+    assert c == pytest.approx(0.7 * T_END, rel=1e-9)
+
+
+def test_global_closure_and_default_values_are_in_the_key(cache):
+    global RATE
+    k = lambda: cc.fingerprint(spin(law_global).topo.model)  # noqa: E731
+    k0 = k()
+    assert k() == k0  # deterministic for the same content
+    RATE = 0.6
+    try:
+        assert k() != k0
+    finally:
+        RATE = 0.5
+
+    def closure(w):
+        return lambda t: w * t
+
+    assert cc.fingerprint(closure(1.0)) != cc.fingerprint(closure(2.0))
+    assert cc.fingerprint(lambda t, w=1.0: w * t) != cc.fingerprint(lambda t, w=2.0: w * t)
+    assert cc.fingerprint(lambda t: jnp.sin(t)) != cc.fingerprint(lambda t: jnp.cos(t))
+
+
+def test_unknown_module_is_a_miss_not_a_guess(cache):
+    import types
+
+    user = types.ModuleType("my_params")  # a user's module: its attributes may change at run time
+    user.K = 3.0
+    g = {"my_params": user}
+    f = eval("lambda t: my_params.K * t", g)
+    with pytest.raises(cc.Unkeyable):
+        cc.fingerprint(f)
+    twice = cc.cached_jit(lambda x: f(x))
+    unkeyed = cc.stats["unkeyed"]
+    assert float(twice(jnp.asarray(2.0))) == 6.0
+    assert cc.stats["unkeyed"] == unkeyed + 1  # ran as a plain jit
+    user.K = 4.0
+    assert float(cc.cached_jit(lambda x: f(x))(jnp.asarray(2.0))) == 8.0
+
+
+def scaled(x, k):
+    return jnp.sin(x) * k
+
+
+def test_corrupted_entry_is_ignored_with_a_warning(cache):
+    x = jnp.linspace(0.0, 1.0, 5)
+    f = cc.cached_jit(scaled, static_argnums=(1,))
+    ref = np.sin(np.asarray(x)) * 3.0
+    np.testing.assert_allclose(f(x, 3.0), ref, rtol=1e-15)
+    files = list(cache.glob("*.pkl"))
+    assert len(files) == 1
+    files[0].write_bytes(b"not a pickle")
+    g = cc.cached_jit(scaled, static_argnums=(1,))  # a new process's wrapper (empty memory)
+    with pytest.warns(pl.ProlegWarning, match="ignoring unreadable entry"):
+        np.testing.assert_allclose(g(x, 3.0), ref, rtol=1e-15)
+    h = cc.cached_jit(scaled, static_argnums=(1,))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        np.testing.assert_allclose(h(x, 3.0), ref, rtol=1e-15)  # rewritten, read back
+    np.testing.assert_allclose(h(x, 2.0), np.sin(np.asarray(x)) * 2.0, rtol=1e-15)  # a static argument is in the key
+
+
+def test_empty_cache_dir_disables_it(tmp_path, monkeypatch):
+    monkeypatch.setenv("PROLEG_CACHE_DIR", "")
+    before = dict(cc.stats)
+    f = cc.cached_jit(scaled, static_argnums=(1,))
+    np.testing.assert_allclose(f(jnp.ones(3), 2.0), 2.0 * np.sin(1.0), rtol=1e-15)
+    assert {k: cc.stats[k] for k in ("exported", "loaded")} == {k: before[k] for k in ("exported", "loaded")}
+
+
+def test_transformations_bypass_the_cache(cache):
+    f = cc.cached_jit(scaled, static_argnums=(1,))
+    g = jax.grad(lambda x: f(x, 2.0).sum())(jnp.ones(3))
+    np.testing.assert_allclose(g, 2.0 * np.cos(1.0), rtol=1e-15)
+    v = jax.vmap(lambda x: f(x, 2.0))(jnp.ones((4, 3)))
+    np.testing.assert_allclose(v, 2.0 * np.sin(1.0), rtol=1e-15)
+
+
+def test_clear_drops_executables_and_reloads_from_disk(cache):
+    f = cc.cached_jit(scaled, static_argnums=(1,))
+    x = jnp.arange(3.0)
+    a = f(x, 5.0)
+    loaded = cc.stats["loaded"]
+    cc.clear()
+    assert not f._memo
+    np.testing.assert_array_equal(f(x, 5.0), a)
+    assert cc.stats["loaded"] == loaded + 1
