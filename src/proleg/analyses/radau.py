@@ -55,6 +55,7 @@ def simulate_radau(system, t_end, dt_output=None, *, t0=0.0, output_times=None, 
     ig = integrator
     dt_max = ig.dt_max if ig.dt_max is not None else t1 - t0
     h0 = ig.dt_init if ig.dt_init is not None else min(1e-4 * (t1 - t0), dt_max)
+    h0 = ig.fixed_step if ig.fixed_step is not None else h0
     f64 = jnp.float64
     qs, vs, ws, zs, st, stat, t_reached = _run_jit(
         ig.static, dyn, q, v, lam, qdd, z0, jnp.asarray(times), jnp.asarray(stops), jnp.asarray(is_tick), ig.tol,

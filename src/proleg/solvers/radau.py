@@ -129,6 +129,8 @@ class Radau5:
     max_newton : int, default 7 — simplified-Newton iterations per step before h is halved
     linear_solver : "eigen" (default; Hairer's real + complex N × N factorizations) or "dense"
         (one 3N × 3N LU)
+    fixed_step : float [s], optional — constant steps without error control (convergence
+        studies); the run stops with a status if Newton fails
     """
 
     rtol: float = 1e-8
@@ -139,6 +141,7 @@ class Radau5:
     max_steps: int = 200_000
     max_newton: int = 7
     linear_solver: str = "eigen"
+    fixed_step: float | None = None
     order = 5
     dae = True  # simulate() dispatches on this (analyses/radau.py)
 
@@ -150,7 +153,7 @@ class Radau5:
                 continue
             if not (isinstance(v, (int, float, np.floating)) and math.isfinite(v) and v > 0):
                 raise ModelError(f"{name} {key} must be a finite number > 0, got {v!r}. Give e.g. {name}(rtol=1e-8, atol=1e-9).")
-        for key in ("dt_init", "dt_max", "dt_min"):
+        for key in ("dt_init", "dt_max", "dt_min", "fixed_step"):
             v = getattr(self, key)
             if v is not None and not (math.isfinite(v) and v > 0):
                 raise ModelError(f"{name} {key} must be a positive time [s] or None, got {v!r}.")
@@ -163,8 +166,9 @@ class Radau5:
 
     @property
     def static(self):
-        """The integrator with its tolerances replaced by 1: the hashable, compile-time part."""
-        return dataclasses.replace(self, rtol=1.0, atol=1.0)
+        """The integrator with its tolerances (and fixed step, passed as the first step) replaced by
+        1: the hashable, compile-time part."""
+        return dataclasses.replace(self, rtol=1.0, atol=1.0, fixed_step=None if self.fixed_step is None else 1.0)
 
     @property
     def tol(self):
@@ -328,12 +332,14 @@ def integrate(cfg: Radau5, dyn, sample, q, v, lam, a, z, w, times, stops, is_tic
         fac = jnp.minimum(safe, safe * (1 + 2 * kmax) / (k + 2 * kmax))
         quot = jnp.clip(err**0.25 / fac, facr, facl)
         facgus = jnp.clip(c["h_acc"] / h * (err * err / c["err_acc"]) ** 0.25 / safe, facr, facl)
-        accept = conv & (err < 1.0) & jnp.all(jnp.isfinite(W))
+        accept = conv & ((err < 1.0) | (cfg.fixed_step is not None)) & jnp.all(jnp.isfinite(W))
         quot_acc = jnp.where(c["first"], quot, jnp.maximum(quot, facgus))
         h_new_acc = h / quot_acc
         h_new_acc = jnp.where(c["rejected"], jnp.minimum(h_new_acc, h), h_new_acc)
         h_new_rej = jnp.where(~conv, 0.5 * h, jnp.where(c["first"], 0.1 * h, h / quot))
         h_new = jnp.minimum(jnp.where(accept, h_new_acc, h_new_rej), dt_max)
+        if cfg.fixed_step is not None:  # constant steps (order studies): a Newton failure stops the run
+            h_new = jnp.where(accept, c["h"], 0.0)
         # Accepted: powers by the same quadrature, outputs by the collocation polynomial.
         ts = t + jnp.asarray(C) * h
         pw = jax.vmap(lambda zq, zv, ti: dyn.power_terms(qn + zq, vn + zv, ti, z))(Zq, Zv, ts)
