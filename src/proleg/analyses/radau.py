@@ -22,7 +22,6 @@ from ..solvers.initial import _consistent_state, initial_z, sample_controllers, 
 from .ode import _output_times
 from .placement import _any_traced
 from .result import Result
-from .simulate import _reduced_start, _to_absolute, motion_breakpoints
 
 
 def _run(cfg, dyn, q, v, lam, a, z, times, stops, is_tick, tol, h0, dt_max):
@@ -36,8 +35,20 @@ def _run(cfg, dyn, q, v, lam, a, z, times, stops, is_tick, tol, h0, dt_max):
 _run_jit = jax.jit(_run, static_argnums=(0,))
 
 
-def simulate_radau(system, t_end, dt_output=None, *, t0=0.0, output_times=None, integrator, coordinates="auto", q0=None, v0=None, throw=True):
-    """Integrate ``system`` with ``integrator`` (a :class:`proleg.Radau5`) in ``coordinates``."""
+@jax.jit
+def _reduce(dyn, q, v, qdd, lam):
+    """The consistent absolute start (q, v, q̈, λ) in the coordinates ``dyn``."""
+    x, xd = dyn.reduce(q, v)
+    return x, xd, dyn.reduce_acceleration(x, xd, qdd, q), dyn.reduce_multipliers(lam)
+
+
+_absolute = jax.jit(jax.vmap(lambda dyn, x, xd: dyn.absolute(x, xd), in_axes=(None, 0, 0)))
+
+
+def simulate_radau(system, t_end, dt_output=None, *, t0=0.0, output_times=None, integrator, coordinates="auto", q0=None, v0=None,
+                   breakpoints=(), throw=True):
+    """Integrate ``system`` with ``integrator`` (a :class:`proleg.Radau5`) in ``coordinates``; steps land on
+    ``breakpoints`` [s] (motion laws', analyses/simulate.py ``motion_breakpoints``)."""
     t0, times = _output_times(t0, t_end, dt_output, output_times)
     if not times[-1] > t0:
         raise ValueError(f"t_end ({t_end}) must be greater than t0 ({t0}).")
@@ -45,11 +56,11 @@ def simulate_radau(system, t_end, dt_output=None, *, t0=0.0, output_times=None, 
     q, v, qdd, lam, z0, _ = _consistent_state(system, q0, v0, t0, initial_z(system))
     dyn = coordinate_set(system, q, coordinates)
     if dyn.kind != "absolute":
-        q, v, qdd, lam, _ = _reduced_start(dyn, q, v, qdd, lam, z0)
+        q, v, qdd, lam = _reduce(dyn, q, v, qdd, lam)
     t1 = float(times[-1])
     Ts = sample_period(system)
     ticks = t0 + Ts * np.arange(1, int(math.floor((t1 - t0) / Ts + 1e-9)) + 1) if Ts else np.zeros(0)
-    bps = np.array([b for b in motion_breakpoints(system) if t0 < b < t1])
+    bps = np.array([b for b in breakpoints if t0 < b < t1])
     stops = np.unique(np.concatenate([ticks[ticks < t1 - 1e-12], bps, [t1]]).round(12))
     is_tick = np.isin(stops, ticks.round(12))
     ig = integrator
@@ -63,7 +74,7 @@ def simulate_radau(system, t_end, dt_output=None, *, t0=0.0, output_times=None, 
     )
     traced = _any_traced((system.params, q))
     if dyn.kind != "absolute":
-        qs, vs = _to_absolute(dyn, qs, vs)
+        qs, vs = _absolute(dyn, qs, vs)
     status, msg = Status.SUCCESS, "success"
     keep = len(times)
     if not traced and int(stat) != 0:

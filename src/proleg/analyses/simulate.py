@@ -226,7 +226,7 @@ def simulate(
             raise ModelError(f"simulate: {sorted(deprecated)} are not keywords of simulate with Radau5: give them to the "
                              "integrator object, e.g. Radau5(rtol=1e-8, dt_max=1e-3).")
         return simulate_radau(system, t_end, dt_out, t0=t0, output_times=times, integrator=integrator, coordinates=coordinates,
-                              q0=q0, v0=v0, throw=True if throw is None else throw)
+                              q0=q0, v0=v0, breakpoints=motion_breakpoints(system), throw=True if throw is None else throw)
     if getattr(integrator, "ode", False):  # Tsit5, Dopri5, Kvaerno5: joint-coordinate ODE (analyses/ode.py)
         from .ode import simulate_ode
 
