@@ -101,13 +101,10 @@ def test_sampled_pid_same_as_generalized_alpha():
     land on the sample times with the command held between them, and the joint angle equals
     the generalized-α run's (both at rtol 1e-8) within 5e-6 rad over 0.3 s (the tolerance of
     the Tsit5 twin of this test in test_ode_integrators.py: GA's own error at that rtol)."""
-    from test_controllers import KD, KP, L_ROD, M_ROD, PERIOD, SET
+    from test_controllers import SET
+    from test_ode_integrators import sampled_servo
 
-    model = pl.Model("servo", gravity=(0, 0, 0))
-    rod = model.add_part("rod", M_ROD, (1e-5, M_ROD * L_ROD**2 / 12, M_ROD * L_ROD**2 / 12), (L_ROD / 2, 0, 0))
-    model.add_joint(pl.Revolute("pin", rod, model.ground, at=(0, 0, 0), axis=(0, 0, 1)))
-    model.add_controller(pl.PID("servo", joint="pin", kp=KP, kd=KD, setpoint=SET, period=PERIOD))
-    system = pl.assemble(model)
+    system = sampled_servo()
     opts = dict(t_end=0.3, dt_output=0.01)
     a = pl.simulate(system, integrator=pl.GeneralizedAlpha(rtol=1e-8, atol=1e-9), **opts)
     b = pl.simulate(system, integrator=pl.Radau5(rtol=1e-8, atol=1e-9), **opts)
