@@ -29,8 +29,9 @@ Error estimate (RADAU5): err = (γE + G)⁻¹ [E Σ d_i Z_i − g(y_n)], d = (�
 (−13 + 7√6)/3, −1/3), the difference to an embedded order-3 solution filtered by the stiff
 solve; when it fails on the first step or right after a rejection, it is recomputed with g at
 y_n + err (Hairer's second filter). The norm is the RMS of err_i / (atol + rtol max(|y_n,i|,
-|y_n+1,i|)) over positions AND velocities; λ and μ (index-2 variables) are left out, as the
-brief of Hairer's code allows. Steps: Hairer's rule h_new = h / max(1/8, min(5, err^¼ / fac))
+|y_n+1,i|)) over positions AND velocities; λ and μ (index-2 variables) are left out (RADAU5
+includes index-2 variables with their weights scaled by 1/h; here they enter only the Newton
+norm, h-scaled). Steps: Hairer's rule h_new = h / max(1/8, min(5, err^¼ / fac))
 with fac = min(0.9, 0.9 (1 + 2 k_max)/(k + 2 k_max)) (k Newton iterations), and Gustafsson's
 predictive (PI) controller on accepted steps (Hairer & Wanner II, §IV.8, eq. (8.21)). No
 increase right after a rejection; a Newton failure halves h.
