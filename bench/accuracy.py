@@ -17,7 +17,8 @@ Problems (issue 21):
 
 Integrators: ``ga`` (generalized-α, ρ∞ = 0.8, the default, coordinates "auto"), ``ga_joint``
 (generalized-α in joint coordinates), ``hht`` (HHT α = −0.05), ``tsit5`` and ``kvaerno5`` (Diffrax, joint-coordinate
-ODE). atol = rtol / 10 (translations) throughout. Wall time: the second of two runs (the
+ODE), ``radau5`` (Radau IIA on the index-2 constrained equations, solvers/radau.py; coordinates "auto":
+planar for these planar models), ``radau5_abs`` and ``radau5_joint`` (the same in absolute / joint coordinates). atol = rtol / 10 (translations) throughout. Wall time: the second of two runs (the
 first compiles).
 
     python bench/accuracy.py                         # all problems, rtol 1e-4 ... 1e-10
@@ -166,6 +167,9 @@ def integrator_kw(name, rtol):
         "hht": dict(integrator=pl.HHT(), **tol),
         "tsit5": dict(integrator=pl.Tsit5(**tol)),
         "kvaerno5": dict(integrator=pl.Kvaerno5(**tol)),
+        "radau5": dict(integrator=pl.Radau5(**tol)),
+        "radau5_abs": dict(integrator=pl.Radau5(**tol), coordinates="absolute"),
+        "radau5_joint": dict(integrator=pl.Radau5(**tol), coordinates="joint"),
     }[name]
 
 

@@ -98,18 +98,25 @@ def test_vmap_and_jacfwd_through_tsit5():
     check_vmap_and_jacfwd(final_x, jnp.linspace(20.0, 90.0, 8))
 
 
-def test_sampled_pid_same_as_generalized_alpha():
-    """A rod on a pin driven by a PID sampled every PERIOD (test_controllers.py): Tsit5 integrates
-    from sample to sample with the command held, and the joint angle equals the generalized-α
-    run's (both at rtol 1e-8) within 5e-6 rad over 0.3 s (measured difference 1.1e-6 rad, of the
-    order of the second-order method's error at that tolerance)."""
+def sampled_servo():
+    """A rod on a pin driven by a PID sampled every PERIOD (test_controllers.py)."""
     from test_controllers import KD, KP, L_ROD, M_ROD, PERIOD, SET
 
     model = pl.Model("servo", gravity=(0, 0, 0))
     rod = model.add_part("rod", M_ROD, (1e-5, M_ROD * L_ROD**2 / 12, M_ROD * L_ROD**2 / 12), (L_ROD / 2, 0, 0))
     model.add_joint(pl.Revolute("pin", rod, model.ground, at=(0, 0, 0), axis=(0, 0, 1)))
     model.add_controller(pl.PID("servo", joint="pin", kp=KP, kd=KD, setpoint=SET, period=PERIOD))
-    system = pl.assemble(model)
+    return pl.assemble(model)
+
+
+def test_sampled_pid_same_as_generalized_alpha():
+    """A rod on a pin driven by a PID sampled every PERIOD (test_controllers.py): Tsit5 integrates
+    from sample to sample with the command held, and the joint angle equals the generalized-α
+    run's (both at rtol 1e-8) within 5e-6 rad over 0.3 s (measured difference 1.1e-6 rad, of the
+    order of the second-order method's error at that tolerance)."""
+    from test_controllers import SET
+
+    system = sampled_servo()
     opts = dict(t_end=0.3, dt_output=0.01)
     a = pl.simulate(system, rtol=1e-8, atol=1e-9, **opts)
     b = pl.simulate(system, integrator=pl.Tsit5(rtol=1e-8, atol=1e-9), **opts)

@@ -120,6 +120,7 @@ from .solvers.galpha import GeneralizedAlpha as GeneralizedAlpha
 from .solvers.ode import Dopri5 as Dopri5
 from .solvers.ode import Kvaerno5 as Kvaerno5
 from .solvers.ode import Tsit5 as Tsit5
+from .solvers.radau import Radau5 as Radau5
 from .analyses.simulate import RunOptions as RunOptions
 from .analyses.simulate import SaveAt as SaveAt
 from .analyses.simulate import simulate as simulate

@@ -191,7 +191,9 @@ def simulate(
         (:class:`proleg.solvers.galpha.AbstractIntegrator`), e.g.
         ``GeneralizedAlpha(rtol=1e-8, atol=1e-9, dt_max=1e-3)``; or :class:`Tsit5`, :class:`Dopri5`,
         :class:`Kvaerno5` (order 5, Diffrax, error control on positions and velocities) for
-        loop-free trees, which run in joint coordinates (solvers/ode.py, analyses/ode.py)
+        loop-free trees, which run in joint coordinates (solvers/ode.py, analyses/ode.py); or
+        :class:`Radau5` (order 5, implicit, the index-2 constrained equations in any coordinates:
+        closed loops, stiff models; solvers/radau.py)
     store : path, optional — stream the outputs to a Parquet dataset (a folder of one file per
         chunk, each written atomically) as the run goes; ``pandas.read_parquet(store)`` reads what
         was finished even if the process died (:class:`proleg.analyses.result.ChunkStore`);
@@ -218,6 +220,17 @@ def simulate(
 
     Works under ``jax.vmap`` and ``jax.jacfwd`` (the Python loop over chunks is static).
     """
+    if getattr(integrator, "dae", False):  # Radau5: index-2 constrained equations (analyses/radau.py)
+        from .radau import simulate_radau
+
+        times = saveat.times if saveat is not None else output_times
+        dt_out = saveat.dt if saveat is not None else dt_output
+        check_simulate(system, dict(t_end=t_end, dt_output=dt_out, t0=t0, output_times=times, q0=q0, v0=v0))
+        if deprecated:
+            raise ModelError(f"simulate: {sorted(deprecated)} are not keywords of simulate with Radau5: give them to the "
+                             "integrator object, e.g. Radau5(rtol=1e-8, dt_max=1e-3).")
+        return simulate_radau(system, t_end, dt_out, t0=t0, output_times=times, integrator=integrator, coordinates=coordinates,
+                              q0=q0, v0=v0, breakpoints=motion_breakpoints(system), throw=True if throw is None else throw)
     if getattr(integrator, "ode", False):  # Tsit5, Dopri5, Kvaerno5: joint-coordinate ODE (analyses/ode.py)
         from .ode import simulate_ode
 
