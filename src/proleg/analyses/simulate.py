@@ -282,6 +282,7 @@ def simulate(
         t=jnp.asarray(t0, jnp.float64), q=q, v=v, a=qdd, qdd=qdd, lam=lam,
         h_prev=jnp.asarray(1.0, jnp.float64), w=jnp.zeros(2), pw=pw, z=z0, g=g0,
         Jfac=(jnp.zeros((n_newton, n_newton)), jnp.arange(n_newton, dtype=jnp.int32)), jac_h=jnp.asarray(0.0, jnp.float64), jac_ok=jnp.asarray(False), jac_hold=jnp.asarray(0, jnp.int32), jac_pen=jnp.asarray(0, jnp.int32),
+        jerk=jnp.zeros_like(q), jerk_h=jnp.asarray(0.0, jnp.float64),
     )
     h = jnp.asarray(dt_init if dt_init is not None else (fixed_step or min(1e-4, dopts.dt_max)), jnp.float64)
     st = st._replace(h_prev=h)
