@@ -198,7 +198,9 @@ def simulate(
         every part to a plane: ``system.topo.planar`` says whether and why) on 3 coordinates per
         part, an exact reduction, several times faster; "joint" runs joint coordinates of the
         joints' spanning tree (assembly/joint_coordinates.py); results are always absolute.
-        ``result.coordinates`` says which ran.
+        ``result.coordinates`` says which ran. "auto" never picks "joint": measured slower
+        including compile on every model tried (assembly/coordinates.py ``auto_coordinates``
+        has the figures).
     q0, v0 : initial coordinates and velocities (default: the modelled pose and velocities),
         made consistent with the constraints
     run : :class:`RunOptions` (progress, throw, on_chunk, chunk, free_running); ``progress``,

@@ -371,11 +371,34 @@ def _planar_basis(system: System, q_ref):
     return PlanarBasis(normal=n, E=E, P=P, coloring=coloring, row_map=row_map), "planar"
 
 
+def auto_coordinates(system: System) -> tuple[str, str]:
+    """What ``coordinates="auto"`` runs, decided from the topology alone: ("planar", why) where the
+    joints confine every part to one plane, else ("absolute", why). Never "joint".
+
+    The rule is measured (bench/coordinates.py, results/coordinates.md; generalized-α, rtol 1e-6,
+    2-core VM): joint coordinates were faster per step only on loop-free chains and lost there
+    by their larger step count and compile time —
+    8-link chain 2 s: joint 1,543 steps × 95 µs vs planar 1,102 × 96 µs (0.15 vs 0.11 s), compile
+    10.9 vs 15.3 s; 3-link chain: 0.055 vs 0.058 s (planar) vs 0.051 s (absolute); HyQ leg
+    (4 cut joints, 18 loop rows) 0.3 s drop: 1.28 s vs 0.67 s planar, compile 228 vs 214 s;
+    Scout II (1 cut joint) 0.34 vs 0.29 s planar; heavy top and a floating-base chain (cut
+    joint, normalization rows): 1.5× the absolute per-step cost; FLEGX's tendon-rod loops leave
+    joint coordinates with free degrees of freedom (ModelError). No model in the table is
+    faster in joint coordinates including compile, so "auto" does not pick them; force
+    ``coordinates="joint"`` for long runs of loop-free trees, or use the Diffrax integrators
+    (pl.Tsit5: joint coordinates at 74 µs per 5th-order step on the 8-link chain)."""
+    basis, why = getattr(system.topo, "planar", (None, "not checked"))
+    if basis is None:
+        return "absolute", f"not planar ({why})"
+    return "planar", "every part confined to one plane by its joints"
+
+
 def coordinate_set(system: System, q_ref, coordinates: str = "auto"):
     """The coordinates to integrate ``system`` in: "absolute", "planar" (error if the model is not
     planar), "joint" (joint coordinates of the spanning tree, loops as constraints:
-    assembly/joint_coordinates.py) or "auto" (planar where the joints confine every part to one
-    plane, else absolute)."""
+    assembly/joint_coordinates.py) or "auto" (:func:`auto_coordinates`: planar where the joints
+    confine every part to one plane, else absolute; joint coordinates were measured slower
+    including compile on every model tried, its docstring has the figures)."""
     if coordinates not in ("auto", "absolute", "planar", "joint"):
         raise ValueError(f"coordinates must be 'auto', 'absolute', 'planar' or 'joint', got {coordinates!r}.")
     if coordinates == "absolute":
