@@ -376,17 +376,20 @@ def auto_coordinates(system: System) -> tuple[str, str]:
     joints confine every part to one plane, else ("absolute", why). Never "joint".
 
     The rule is measured (bench/coordinates.py, results/coordinates.md; generalized-α, rtol 1e-6,
-    2-core VM): joint coordinates were faster per step only on loop-free chains and lost there
-    by their larger step count and compile time —
-    8-link chain 2 s: joint 1,543 steps × 95 µs vs planar 1,102 × 96 µs (0.15 vs 0.11 s), compile
-    10.9 vs 15.3 s; 3-link chain: 0.055 vs 0.058 s (planar) vs 0.051 s (absolute); HyQ leg
-    (4 cut joints, 18 loop rows) 0.3 s drop: 1.28 s vs 0.67 s planar, compile 228 vs 214 s;
-    Scout II (1 cut joint) 0.34 vs 0.29 s planar; heavy top and a floating-base chain (cut
-    joint, normalization rows): 1.5× the absolute per-step cost; FLEGX's tendon-rod loops leave
-    joint coordinates with free degrees of freedom (ModelError). No model in the table is
-    faster in joint coordinates including compile, so "auto" does not pick them; force
-    ``coordinates="joint"`` for long runs of loop-free trees, or use the Diffrax integrators
-    (pl.Tsit5: joint coordinates at 74 µs per 5th-order step on the 8-link chain)."""
+    cold compiles, 2-core VM at load average 4–11, so compare CPU µs/step): joint coordinates
+    cost about the same per step as planar ones on loop-free chains but take more steps and
+    compile 2–3× longer —
+    8-link chain 2 s: joint 1,543 steps × 108 µs vs planar 1,102 × 91 µs, compile 57 vs 22 s;
+    3-link chain: 1,326 × 48 vs 1,063 × 49 µs, compile 46 vs 20 s; pendulum: 14 vs 22 µs but
+    compile 30 vs 17 s; HyQ leg (4 cut joints, 18 loop rows): 855 vs 429 µs/step, compile 152
+    vs 29 s; Scout II (1 cut joint): 627 vs 375 µs/step; heavy top and a floating-base chain
+    (cut joint, normalization rows): 51 vs 23 and 103 vs 73 µs/step against absolute; FLEGX's
+    tendon-rod loops leave joint coordinates with free degrees of freedom (ModelError). No
+    model is faster in joint coordinates including compile, so "auto" does not pick them;
+    force ``coordinates="joint"`` for long runs of small loop-free trees, or use the Diffrax
+    integrators (pl.Tsit5: joint coordinates at 74 µs per 5th-order step on the 8-link chain).
+    (The joint rows ran first and also compiled the initial-condition solve: their compile
+    figures are upper bounds, by ~10 s.)"""
     basis, why = getattr(system.topo, "planar", (None, "not checked"))
     if basis is None:
         return "absolute", f"not planar ({why})"
