@@ -204,7 +204,9 @@ def simulate(
         every part to a plane: ``system.topo.planar`` says whether and why) on 3 coordinates per
         part, an exact reduction, several times faster; "joint" runs joint coordinates of the
         joints' spanning tree (assembly/joint_coordinates.py); results are always absolute.
-        ``result.coordinates`` says which ran.
+        ``result.coordinates`` says which ran. "auto" never picks "joint": measured slower
+        including compile on every model tried (assembly/coordinates.py ``auto_coordinates``
+        has the figures).
     q0, v0 : initial coordinates and velocities (default: the modelled pose and velocities),
         made consistent with the constraints
     run : :class:`RunOptions` (progress, throw, on_chunk, chunk, free_running); ``progress``,
@@ -302,6 +304,7 @@ def simulate(
         h_prev=np.asarray(1.0, f64), w=np.zeros(2), pw=pw, z=z0, g=g0,
         Jfac=(np.zeros((n_newton, n_newton)), np.arange(n_newton, dtype=i32)), jac_h=np.asarray(0.0, f64),
         jac_ok=np.asarray(False), jac_hold=np.asarray(0, i32), jac_pen=np.asarray(0, i32),
+        jerk=np.zeros_like(q), jerk_h=np.asarray(0.0, f64),
     )
     h = np.asarray(dt_init if dt_init is not None else (fixed_step or min(1e-4, dopts.dt_max)), f64)
     st = st._replace(h_prev=h)

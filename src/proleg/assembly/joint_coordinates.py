@@ -330,8 +330,13 @@ class JointCoordinates:
             C = P["marker_C"]
             C_in, C_out = C[T.m_in], C[T.m_out]
             s_in, s_out = P["marker_s"][T.m_in], P["marker_s"][T.m_out]
+        start = 0  # first position of the last block
         for idx, ppos in zip(T.levels, T.level_parent_pos):
-            rr, AA = jnp.concatenate(r_blk, 0)[ppos], jnp.concatenate(A_blk, 0)[ppos]
+            if np.all(ppos >= start):  # parents all in the last block (always, by BFS depth): no concatenation
+                rr, AA = r_blk[-1][ppos - start], A_blk[-1][ppos - start]
+            else:
+                rr, AA = jnp.concatenate(r_blk, 0)[ppos], jnp.concatenate(A_blk, 0)[ppos]
+            start += r_blk[-1].shape[0]
             A_in = mm(AA, C_in[idx])
             ct, st = jnp.cos(th[idx]), jnp.sin(th[idx])
             # A_out = A_in R_z(σθ): columns (c x + s y, −s x + c y, z) of A_in
@@ -421,9 +426,11 @@ class JointCoordinates:
 
     def mass_matrix(self, x):
         """M(x) (nq, nq) by the composite-rigid-body algorithm (module docstring)."""
-        T = self.tree
         r, A, S, _ = self._state(x)
-        I = self._spatial_inertia(r, A)
+        return self._crba(S, self._spatial_inertia(r, A))
+
+    def _crba(self, S, I):
+        T = self.tree
         Ic = jnp.einsum("bk,bij->kij", jnp.asarray(T.anc), I)  # composite inertia of each coordinate's part
         F = jnp.einsum("kij,kj->ki", Ic, S)
         Gm = F @ S.T  # G[k, l] = S_kᵀ I^c_k S_l
@@ -454,16 +461,28 @@ class JointCoordinates:
 
     def generalized_forces(self, x, xd, t, z=None):
         """Q(x, ẋ, t) = −RNEA(x, ẋ, ẍ = 0): applied loads, gravity and the velocity terms."""
+        r, A, S, V = self._state(x, xd)
+        bk = self._body_kin(r, A, V)
+        return self._rnea(x, xd, t, z, r, A, S, V, bk, self._markers(bk), self._spatial_inertia(r, A))
+
+    def dynamics(self, x, xd, t, z=None):
+        """(M, Q, powers) from one pass of forward kinematics: what the ODE's right-hand side
+        needs (solvers/ode.py), without repeating the kinematics per quantity."""
+        r, A, S, V = self._state(x, xd)
+        bk = self._body_kin(r, A, V)
+        mk = self._markers(bk)
+        I = self._spatial_inertia(r, A)
+        Q = self._rnea(x, xd, t, z, r, A, S, V, bk, mk, I)
+        return self._crba(S, I), Q, element_power(self.system, bk, mk, t, z)
+
+    def _rnea(self, x, xd, t, z, r, A, S, V, bk, mk, I):
         T, P = self.tree, self.system.params
         nb = T.parent.size
         anc = jnp.asarray(T.anc)
-        r, A, S, V = self._state(x, xd)
-        bk = self._body_kin(r, A, V)
-        Fb, Nb, _, _ = body_loads(self.system, bk, self._markers(bk), t, z)
+        Fb, Nb, _, _ = body_loads(self.system, bk, mk, t, z)
         Nw = mv(bk.A[:nb], Nb)
         fext = jnp.concatenate([Nw + jnp.cross(r[:nb], Fb), Fb], 1)
         acc = anc @ self._bias(x, xd, S, V) - jnp.concatenate([jnp.zeros(3, x.dtype), P["gravity"]])
-        I = self._spatial_inertia(r, A)
         h = jnp.einsum("bij,bj->bi", I, V)
         vxf = jnp.concatenate([jnp.cross(V[:, :3], h[:, :3]) + jnp.cross(V[:, 3:], h[:, 3:]), jnp.cross(V[:, :3], h[:, 3:])], 1)
         f = jnp.einsum("bij,bj->bi", I, acc) + vxf - fext

@@ -64,7 +64,7 @@ def _restart(dyn, st: StepState, z):
     qdd, lam = kkt_accelerations(dyn, st.q, st.v, t_right, z)
     _, vjp = jax.vjp(lambda qq: dyn.constraints(qq, st.t), st.q)
     g = vjp(lam)[0] - dyn.generalized_forces(st.q, st.v, st.t, z)
-    return st._replace(z=z, qdd=qdd, a=qdd, lam=lam, g=g, pw=dyn.power_terms(st.q, st.v, st.t, z))
+    return st._replace(z=z, qdd=qdd, a=qdd, lam=lam, g=g, pw=dyn.power_terms(st.q, st.v, st.t, z), jerk_h=st.jerk_h * 0.0)
 
 
 class Knot(NamedTuple):

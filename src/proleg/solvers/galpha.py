@@ -14,6 +14,28 @@ default the matrix is rebuilt every step; with ``StepOptions(jacobian_reuse=True
 LU factors are kept across steps and rebuilt only when Newton contracts slowly, fails, or h has
 moved by more than a factor ``jacobian_h_ratio`` since it was built (bench/README.md).
 
+Velocity error (``error_on="positions+velocities"``)
+----------------------------------------------------
+On q̈ = f the α-method's accelerations satisfy a_n = q̈(t_n + δ₁h) + δ₂h²q⁗ + O(h³) with
+δ₁ = α_m − α_f, δ₂ = (1 − α_f)/2 − (1 − α_m)(1/2 + δ₁) (Arnold & Brüls 2007, Sec. 3; HHT is
+α_m = 0, α_f = −α). Taylor expansion of v_{n+1} = v_n + h[(1 − γ)a_n + γa_{n+1}] gives the
+local velocity error v(t+h) − v_{n+1} = C_v h³ q⁗ + O(h⁴), C_v = 1/6 − δ₂ − γ/2 − γδ₁ (the h²
+term vanishes for γ = 1/2 − δ₁); ρ∞ = 0.8: C_v = −29/324, HHT α = −0.05: −0.106. The same order
+h³ as the position error, whose estimate is C h²(a_{n+1} − a_n) ≈ C h³q⃛. q⁗ is estimated by the
+divided difference of the jerks j = (a_{n+1} − a_n)/h of this step and the last accepted one,
+q⁗ ≈ 2(j_{n+1} − j_n)/(h_n + h_{n+1}), in the weights rtol·|v| + atol/T (T =
+``velocity_time_scale``, AbstractIntegrator); the error norm is the larger of the two weighted
+RMS norms. There is no velocity term on the first step after a start or a restart
+(controller sample, motion breakpoint: the accelerations jump there and the history is reset).
+With constraints (index 3) the estimate is projected onto Φ_q e = 0 with the step's Newton
+matrix: the index-3 accelerations carry a transient along M⁻¹Φ_qᵀ (the multipliers' oscillation
+after each change of h, Arnold & Brüls Sec. 4) that does not scale with h and, unprojected,
+drives the step to dt_min (measured on the double pendulum in planar coordinates).
+Measured (bench/galpha_error.py, bench/README.md): energy error 5–20× smaller at the same
+rtol for ~2–2.7× the steps, and smaller for equal steps; the slope stays ~0.7 decade per
+decade of rtol, as for any O(h³) local-error control of a second-order method (h ∝ tol^(1/3),
+global error ∝ h² ∝ tol^(2/3)). Off by default.
+
 Choosing values
 ---------------
 ``rho_inf`` (spectral radius at infinite frequency) in [0.5, 0.95]: 0.8 (default) damps
@@ -52,6 +74,8 @@ class StepState(NamedTuple):
     jac_ok: jnp.ndarray  # bool: fit for reuse on the next step
     jac_hold: jnp.ndarray  # int: steps left that take a fresh matrix (after a failed reuse)
     jac_pen: jnp.ndarray  # int: current hold length (doubles on each failed reuse, up to 64)
+    jerk: jnp.ndarray  # (a_{n+1} − a_n)/h of the last accepted step (velocity error estimate)
+    jerk_h: jnp.ndarray  # its step [s]; 0: none (start, restart) — no velocity term on the next step
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -76,6 +100,13 @@ class AbstractIntegrator:
     lu_per_lane : under ``jax.vmap``, one LAPACK LU call per variant instead of jaxlib's batched
         LU, which can deadlock when two batches run at once in threads (:class:`StepOptions`;
         :func:`proleg.sweep` sets it for its workers)
+    error_on : "positions" (default) or "positions+velocities" — what the local error estimate
+        covers (module docstring, "Velocity error").
+    velocity_time_scale : float [s], default 0.1 — T in the velocity tolerance
+        rtol·|v| + atol/T (and atol_p/T for Euler-parameter rates): a velocity error δv held
+        over T moves a position by δv·T, so atol/T is the velocity error that costs atol in
+        position over T. 0.1 s is the time scale of legged-robot motions (a touchdown lasts
+        10–50 ms, a stride 0.3 s); with rtol·|v| dominating (moving parts) it does not matter.
     """
 
     rtol: float = 1e-6
@@ -88,11 +119,14 @@ class AbstractIntegrator:
     max_newton: int = 10
     jacobian_reuse: bool = False
     lu_per_lane: bool = False
+    error_on: str = "positions"
+    velocity_time_scale: float = 0.1
 
     def step_options(self) -> StepOptions:
         return StepOptions(
             rtol=float(self.rtol), atol=float(self.atol), atol_p=float(self.atol if self.atol_p is None else self.atol_p),
             max_newton=int(self.max_newton), jacobian_reuse=bool(self.jacobian_reuse), lu_per_lane=bool(self.lu_per_lane),
+            velocity_error=self.error_on == "positions+velocities", velocity_time_scale=float(self.velocity_time_scale),
         )
 
     @property
@@ -114,6 +148,10 @@ class AbstractIntegrator:
                 raise ModelError(f"{name} {k} must be positive [s or -], got {v}; leave it None for the default.")
         if not int(self.max_newton) >= 1:
             raise ModelError(f"{name} max_newton must be at least 1, got {self.max_newton}.")
+        if self.error_on not in ("positions", "positions+velocities"):
+            raise ModelError(f"{name} error_on must be 'positions' or 'positions+velocities', got {self.error_on!r}.")
+        if not float(self.velocity_time_scale) > 0:
+            raise ModelError(f"{name} velocity_time_scale must be positive [s], got {self.velocity_time_scale}.")
 
 
 @dataclass(frozen=True)
@@ -142,6 +180,11 @@ class GeneralizedAlpha(AbstractIntegrator):
         am, af, gamma, beta = self.coefficients
         return beta - gamma / 2 + 1.0 / 12.0
 
+    @property
+    def velocity_error_coefficient(self):
+        am, af, _, _ = self.coefficients
+        return _velocity_error_coefficient(am, af)
+
     hht = False
 
 
@@ -166,7 +209,22 @@ class HHT(AbstractIntegrator):
     def error_coefficient(self):
         return 1.0 / 12.0 + self.alpha**2 / 4.0
 
+    @property
+    def velocity_error_coefficient(self):
+        # HHT is the α-method with α_m = 0, α_f = −α (its accelerations approximate q̈(t + αh)).
+        return _velocity_error_coefficient(0.0, -self.alpha)
+
     hht = True
+
+
+def _velocity_error_coefficient(am, af):
+    """C_v of the velocity update's local error v(t+h) − v_{n+1} = C_v h³ q⁗ + O(h⁴) for the
+    α-method family with γ = 1/2 + α_f − α_m (module docstring, "Velocity error"):
+    C_v = 1/6 − δ₂ − γ/2 − γ δ₁, δ₁ = α_m − α_f, δ₂ = (1 − α_f)/2 − (1 − α_m)(1/2 + δ₁)."""
+    d1 = am - af
+    gamma = 0.5 - d1
+    d2 = 0.5 * (1.0 - af) - (1.0 - am) * (0.5 + d1)
+    return 1.0 / 6.0 - d2 - 0.5 * gamma - gamma * d1
 
 
 @dataclass(frozen=True)
@@ -191,6 +249,8 @@ class StepOptions:
     # threads then each hold a pool thread and wait for the other: a deadlock (jaxlib 0.10,
     # 2-core VM, 500 lanes). ``sweep`` sets it when it runs batches concurrently.
     lu_per_lane: bool = False
+    velocity_error: bool = False  # error_on="positions+velocities"
+    velocity_time_scale: float = 0.1  # [s]: velocity atol = atol / T
 
 
 _OPTION_FIELDS = frozenset(f.name for f in fields(AbstractIntegrator))
@@ -410,11 +470,24 @@ def step(dyn, integrator, st: StepState, h, opts: StepOptions):
         jac_hold = jnp.where(stale_fail, jac_pen, jnp.maximum(st.jac_hold - conv.astype(st.jac_hold.dtype), 0))
     else:
         jac_pen, jac_hold = st.jac_pen, st.jac_hold
-    if integrator.hht:
-        e_vec = h * h * integrator.error_coefficient * (qdd1 - st.qdd)
-    else:
-        e_vec = h * h * integrator.error_coefficient * (a1 - a_n)
+    da = (qdd1 - st.qdd) if integrator.hht else (a1 - a_n)
+    e_vec = h * h * integrator.error_coefficient * da
+    jerk = da / h  # ≈ q⃛ over the step
     err = _wrms(e_vec, w)
+    if opts.velocity_error:
+        # Velocity term (module docstring): C_v h³ q⁗, q⁗ from the divided difference of this
+        # step's and the last step's jerk; none on the first step after a (re)start.
+        d4 = 2.0 * (jerk - st.jerk) / (h + st.jerk_h)
+        ev_vec = jnp.where(st.jerk_h > 0, h * h * h * integrator.velocity_error_coefficient * d4, 0.0)
+        if dyn.nc:
+            # Only the part along the constraints counts: the index-3 scheme's accelerations
+            # carry a transient along M⁻¹Φ_qᵀ (the multipliers' ρ∞-decaying oscillation, note
+            # §4) that does not scale with h. Removed by the projection with the Newton matrix,
+            # e − J⁻¹Φ_qᵀ(Φ_q J⁻¹Φ_qᵀ)⁻¹Φ_q e (one JVP of Φ and two triangular solves).
+            dphi = jax.jvp(lambda qq: dyn.constraints(qq, t1), (q1,), (ev_vec,))[1]
+            ev_vec = ev_vec - lu_apply(Jfac, jnp.concatenate([jnp.zeros(nq, q1.dtype), dphi]))[:nq]
+        wv = dyn.weights(st.q, 0.0, opts.atol, opts.atol_p) / opts.velocity_time_scale + opts.rtol * jnp.abs(st.v)
+        err = jnp.maximum(err, _wrms(ev_vec, wv))
     pw1 = dyn.power_terms(q1, v1, t1, z)
     wnew = st.w + 0.5 * h * (st.pw + pw1)
     if integrator.hht:
@@ -422,7 +495,7 @@ def step(dyn, integrator, st: StepState, h, opts: StepOptions):
         g1 = vjp1(lam1)[0] - dyn.generalized_forces(q1, v1, t1, z)
     else:
         g1 = st.g
-    new = StepState(t1, q1, v1, a1, qdd1, lam1, h, wnew, pw1, z, g1, Jfac, jac_h, jac_ok, jac_hold, jac_pen)
+    new = StepState(t1, q1, v1, a1, qdd1, lam1, h, wnew, pw1, z, g1, Jfac, jac_h, jac_ok, jac_hold, jac_pen, jerk, h)
     worst = jnp.argmax(jnp.abs(jnp.where(jnp.isfinite(r), r, jnp.inf)))
     worst = jnp.where(conv, jnp.argmax(jnp.abs(e_vec / w)), worst)
     return new, err, iters, conv, worst, stale_fail, fresh
