@@ -416,7 +416,7 @@ def element_units(system: System, nz: int) -> dict:
 
     def f(q, v, t, z):
         bk, mk = kinematics(system, q, v)
-        ctx = StateView(topo, bk, mk, t, z)
+        ctx = StateView(topo, bk, mk, t, z, system.params)
         for g in topo.groups + topo.extensions:
             if len(g) and hasattr(g, "outputs"):
                 out[g.kind] = {k: unit for k, (val, unit) in g.outputs(system.params, mk, t, ctx).items()}

@@ -304,7 +304,7 @@ def simulate(
         h_prev=np.asarray(1.0, f64), w=np.zeros(2), pw=pw, z=z0, g=g0,
         Jfac=(np.zeros((n_newton, n_newton)), np.arange(n_newton, dtype=i32)), jac_h=np.asarray(0.0, f64),
         jac_ok=np.asarray(False), jac_hold=np.asarray(0, i32), jac_pen=np.asarray(0, i32),
-        jerk=np.zeros_like(q), jerk_h=np.asarray(0.0, f64),
+        jerk=np.zeros(np.shape(q)), jerk_h=np.asarray(0.0, f64),
     )
     h = np.asarray(dt_init if dt_init is not None else (fixed_step or min(1e-4, dopts.dt_max)), f64)
     st = st._replace(h_prev=h)
