@@ -8,7 +8,9 @@ Case A only (with rigid interfaces case B has the same strains), stress stiffeni
 dimensions. Two sequences make the study (:data:`proleg.robots.torque_sensor.DEFAULT_MESH`, the
 table in its comment): the global size h with the fillets resolved alike on every mesh
 (``--sizes 6,5,4,3``), and the fillet element size at the default h (``--sizes 6,6,6
---fillet-sizes 0.5,0.35,0.25 --tag fillet``). Max von Mises is the averaged vertex stress
+--fillet-sizes 0.5,0.35,0.25 --tag fillet``), then the default against everything refined
+(``--sizes 5,3 --fillet-sizes 0.35,0.25 --tag refined``). The first sequence in the CSV was run
+with fillet_size 0.5 (the default then). Max von Mises is the averaged vertex stress
 (:meth:`proleg.fem.SolidModel.vertex_stress`).
 
 Writes bench/results/torque_sensor_convergence_<concept>[_<tag>].csv and prints the table with
