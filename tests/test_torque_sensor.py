@@ -68,6 +68,7 @@ def test_tension_links_equilibrium_and_bidirectionality():
     ("tension_links", dict(link_width=0.0015), "link_width"),  # wall thinner than half the mesh
     ("hollow", dict(wall=0.0015), "wall"),
     ("spokes", dict(r_out=0.05), "r_out"),  # outside the envelope
+    ("final", dict(neck_length=0.0055), "free length"),  # neck + the end mill's arcs longer than the link
 ])
 def test_bad_geometry_names_the_parameter(concept, dims, match):
     with pytest.raises(ModelError, match=match):
@@ -116,3 +117,15 @@ def test_optimisation_is_resumable(tmp_path):
     assert len(again.study.trials) == 2 and len(again.rows) == 2
     assert len(Store(store).read()) == 2  # trial 0 read back from the store, not solved again
     assert again.rows.gauge_strain.iloc[0] == first.rows.gauge_strain.iloc[0]
+
+
+def test_swept_mesh_bad_input():
+    from proleg.fem.mesh import mesh_extruded
+
+    def ball(occ):
+        occ.addSphere(0, 0, 0.01, 0.005)  # no planar face at z = 0 to sweep
+
+    with pytest.raises(ModelError, match="no planar face at z = 0"):
+        mesh_extruded(ball, 0.003, 0.01)
+    with pytest.raises(ModelError, match="thickness"):
+        mesh_extruded(ball, 0.003, 0.0)

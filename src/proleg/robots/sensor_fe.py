@@ -4,7 +4,7 @@ See :mod:`proleg.robots.torque_sensor` for the concepts, the envelope, the load 
 bidirectionality model. Outputs (``SensorResult.metrics``):
 
 stiffness [N m/deg], twist [deg] at the torque (case A), max_von_mises [Pa] and where, over
-both cases and directions, excluding a band ``interface_band`` [m] next to the bolted interface
+both cases and directions (the averaged vertex stress, :meth:`proleg.fem.SolidModel.vertex_stress`), excluding a band ``interface_band`` [m] next to the bolted interface
 faces (where the idealised clamp gives a stress singularity), safety_factor = yield / max vM,
 gauge_strain [-] (largest magnitude over the gauges, CW and CCW, both cases),
 strain_in_range (min_gauge_strain <= gauge_strain <= max_gauge_strain), gauge_planar,
@@ -127,7 +127,8 @@ def torque_sensor_analysis(concept: str = "final", torque: float = 140.0, mesh_s
                            gauge_factor: float = 2.0, clearance: float = 0.006, flatness_tol: float = 5e-6,
                            interface_band: float = 0.002, stress_stiffening: bool = True, refine_gauges: bool = True,
                            interface: str = "rigid", cases: tuple = ("A", "B"), geometry_checks: bool = True,
-                           curvature_points: int = 0, **dimensions) -> SensorResult:
+                           curvature_points: int = 0, fillet_size: float = 0.35, layers: int | None = None,
+                           **dimensions) -> SensorResult:
     """FE analysis of one torque-sensor design (seed 001 Problem 2).
 
     Parameters
@@ -149,15 +150,20 @@ def torque_sensor_analysis(concept: str = "final", torque: float = 140.0, mesh_s
     cases : subset of ("A", "B")  load cases to solve (A must be one). With ``interface="rigid"`` B is the
                                   same linear problem as A plus a rigid rotation (opposite strains; ~1 % apart
                                   with stress stiffening), so a linear search may solve A alone
-    curvature_points : int        extra elements along the fillets (gmsh elements per 2 pi of curvature; 0:
-                                  sizes from mesh_size and h_min = mesh_size / 4 only; see the mesh convergence)
+    curvature_points : int        hollow concept only: gmsh elements per 2 pi of curvature (0: sizes from
+                                  mesh_size and h_min = mesh_size / 4 only)
+    fillet_size : [-]             disc concepts: element size at the fillets as a fraction of their radius
+                                  (swept mesh, :func:`proleg.fem.mesh.mesh_extruded`; 0.35: three P2
+                                  elements along a quarter arc; see the mesh convergence)
+    layers : int                  disc concepts: element layers through the thickness (default
+                                  max(1, round(thickness / (2 mesh_size))))
     geometry_checks : bool        run the gauge-face planarity / clearance checks (gmsh, ~2 s); False
                                   reports them as NaN / None
     **dimensions : [m]            concept dimensions (:data:`proleg.robots.torque_sensor.DEFAULTS`)
     """
     from ..fem import SolidModel
     from ..fem.craig_bampton import _factorize
-    from ..fem.mesh import axial_rotation, mesh_occ, rotation_field, torque_load
+    from ..fem.mesh import axial_rotation, mesh_extruded, mesh_occ, rotation_field, torque_load
 
     if not (isinstance(torque, int | float) and math.isfinite(torque) and torque != 0):
         raise ModelError(f"torque_sensor_analysis torque = {torque!r} must be a non-zero finite number [N m] "
@@ -171,15 +177,18 @@ def torque_sensor_analysis(concept: str = "final", torque: float = 140.0, mesh_s
     t0 = time.perf_counter()
     h = design.mesh_size
     refine = [(g.center, 0.004, h / 2) for g in design.gauges] if refine_gauges else None
-    model = SolidModel(*mesh_occ(design.build, h, refine=refine, h_min=h / 4, curvature_points=curvature_points),
-                       material, order=2)
+    if concept == "hollow":
+        mesh = mesh_occ(design.build, h, refine=refine, h_min=h / 4, curvature_points=curvature_points)
+    else:  # a plate part: the swept mesh resolves every fillet at any h (see the mesh convergence)
+        mesh = mesh_extruded(design.build, h, design.dims["thickness"], refine=refine, h_min=h / 4,
+                             fillet_radius=design.dims.get("fillet", 0.0), fillet_size=fillet_size, layers=layers)
+    model = SolidModel(*mesh, material, order=2)
     t_mesh = time.perf_counter() - t0
     rot = rotation_field(model)
     cases = {c: {"A": (design.motor_face, design.hd_face), "B": (design.hd_face, design.motor_face)}[c] for c in cases}
     sols, vms, rows, lin = {}, {}, [], {}
     react_err, twist_deg = 0.0, None
     X = model.basis.mapping.F(model.basis.X)  # (3, ne, nq)
-    band = design.interface_distance(X[0], X[1], X[2]) < interface_band
     for case, (loaded, fixed) in cases.items():
         lf, ff = _facets_on(model, loaded), _facets_on(model, fixed)
         if lf.size == 0 or ff.size == 0:
@@ -253,11 +262,13 @@ def torque_sensor_analysis(concept: str = "final", torque: float = 140.0, mesh_s
     t_solve = time.perf_counter() - t0 - t_mesh
     gauges = pd.DataFrame(rows)
     vm_max, where = 0.0, None
-    for key, vm in vms.items():
-        masked = np.where(band, 0.0, vm)
-        i = np.unravel_index(int(np.argmax(masked)), masked.shape)
-        if masked[i] > vm_max:
-            vm_max, where = float(masked[i]), (key, X[:, i[0], i[1]])
+    P = model.points.T
+    band = design.interface_distance(P[0], P[1], P[2]) < interface_band
+    for key, u in sols.items():  # averaged vertex stress: converges to the surface peak at a fillet
+        vm = np.where(band, 0.0, model.vertex_stress(u)[1])
+        i = int(np.argmax(vm))
+        if vm[i] > vm_max:
+            vm_max, where = float(vm[i]), (key, model.points[i])
     bridge = gauges.assign(s=gauges.sign * gauges.strain).groupby(["case", "direction"])["s"].mean()
     cal = {dr: 1e3 * gauge_factor * abs(bridge.loc[("A", dr)]) / T for dr in ("CCW", "CW")}
     checks = (_geometry_checks(design, clearance, flatness_tol) if geometry_checks
@@ -285,15 +296,18 @@ def torque_sensor_analysis(concept: str = "final", torque: float = 140.0, mesh_s
     return SensorResult(metrics, gauges, model, design, sols, vms, X)
 
 
-def mesh_convergence(concept: str = "final", sizes=(0.006, 0.005, 0.004, 0.003), *, verbose: bool = False,
-                     **kw) -> pd.DataFrame:
+def mesh_convergence(concept: str = "final", sizes=(0.006, 0.005, 0.004, 0.003), *, fillet_sizes=None,
+                     verbose: bool = False, **kw) -> pd.DataFrame:
     """Gauge strain, max von Mises, stiffness and calibration on a sequence of meshes (coarse to
-    fine); columns ``*_rel`` are the differences from the finest mesh [-]. ``verbose`` prints each
-    row as it is done; ``kw`` go to :func:`torque_sensor_analysis`."""
+    fine); columns ``*_rel`` are the differences from the finest mesh [-]. ``fillet_sizes``: one
+    per size (the fillet element size as a fraction of the fillet radius, refined with h), else the
+    default. ``verbose`` prints each row as it is done; ``kw`` go to :func:`torque_sensor_analysis`."""
     rows = []
-    for h in sizes:
+    for i, h in enumerate(sizes):
+        if fillet_sizes is not None:
+            kw["fillet_size"] = fillet_sizes[i]
         m = torque_sensor_analysis(concept, mesh_size=h, **kw).metrics
-        rows.append({k: m[k] for k in ("mesh_size", "n_dofs", "gauge_strain", "max_von_mises", "max_von_mises_radius_mm",
+        rows.append({"fillet_size": kw.get("fillet_size", math.nan)} | {k: m[k] for k in ("mesh_size", "n_dofs", "gauge_strain", "max_von_mises", "max_von_mises_radius_mm",
                                        "stiffness", "calibration_ccw", "time_mesh", "time_solve")})
         if verbose:
             print(rows[-1], flush=True)

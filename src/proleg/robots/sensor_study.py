@@ -17,7 +17,8 @@ its fillets on the default mesh, both cases, with stress stiffening. The constra
 optuna's TPE as constraint values (feasible when <= 0), not as a penalty.
 
 Design space (bench/torque_sensor_design_space.py, 1-D scan of the neck width at the defaults,
-search evaluation; measured, bench/results/torque_sensor_design_space_neck_width.csv): gauge
+search evaluation; measured with the earlier 5 mm neck between steps, before the neck became a 4 mm
+flat with end-mill arcs -- not re-measured; bench/results/torque_sensor_design_space_neck_width.csv): gauge
 strain 0.063 / 0.052 / 0.045 / 0.041 % at neck 4 / 5 / 6 / 7 mm, safety factor 5.6 to 12.2,
 stiffness 2117 to 2357 N m/deg: the binding constraint is the gauge's linear range (strain <=
 0.06 %, met from a neck of ~4.3 mm at the other defaults); the optimum sits on it, the yield and
