@@ -19,7 +19,7 @@ from ..assembly.coordinates import coordinate_set
 from ..errors import SolverError, Status
 from ..solvers import radau
 from ..solvers.initial import _consistent_state, initial_z, sample_controllers, sample_period
-from .ode import _output_times
+from .ode import _absolute, _output_times
 from .placement import _any_traced
 from .result import Result
 
@@ -42,7 +42,6 @@ def _reduce(dyn, q, v, qdd, lam):
     return x, xd, dyn.reduce_acceleration(x, xd, qdd, q), dyn.reduce_multipliers(lam)
 
 
-_absolute = jax.jit(jax.vmap(lambda dyn, x, xd: dyn.absolute(x, xd), in_axes=(None, 0, 0)))
 
 
 def simulate_radau(system, t_end, dt_output=None, *, t0=0.0, output_times=None, integrator, coordinates="auto", q0=None, v0=None,

@@ -44,11 +44,7 @@ class PartResult:
     def orientation(self):
         from ..spatial.rotation import A_of_p
 
-        if isinstance(self._p, jax.core.Tracer):
-            return A_of_p(self._p)
-        e0, e = self._p[:, 0], self._p[:, 1:]
-        A = (e0 * e0 - np.sum(e * e, 1))[:, None, None] * np.eye(3) + 2 * e[:, :, None] * e[:, None, :]
-        return A + 2 * e0[:, None, None] * _skew(e)
+        return A_of_p(self._p)  # NumPy on a NumPy record (no JAX dispatch), jax.numpy when traced
 
     @cached_property
     def euler_deg(self):
@@ -61,11 +57,6 @@ class PartResult:
     @cached_property
     def angular_acceleration(self):
         return _omega(self._p, self._res.qdd[:, 7 * self._b + 3 : 7 * self._b + 7])  # Ġṗ = 0
-
-
-def _skew(e):
-    z = np.zeros(e.shape[0])
-    return np.stack([np.stack([z, -e[:, 2], e[:, 1]], 1), np.stack([e[:, 2], z, -e[:, 0]], 1), np.stack([-e[:, 1], e[:, 0], z], 1)], 1)
 
 
 def _omega(p, pd):

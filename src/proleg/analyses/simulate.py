@@ -222,11 +222,11 @@ def simulate(
 
     Works under ``jax.vmap`` and ``jax.jacfwd`` (the Python loop over chunks is static).
     """
+    times = saveat.times if saveat is not None else output_times  # the Radau5 and ODE paths' output request
+    dt_out = saveat.dt if saveat is not None else dt_output
     if getattr(integrator, "dae", False):  # Radau5: index-2 constrained equations (analyses/radau.py)
         from .radau import simulate_radau
 
-        times = saveat.times if saveat is not None else output_times
-        dt_out = saveat.dt if saveat is not None else dt_output
         check_simulate(system, dict(t_end=t_end, dt_output=dt_out, t0=t0, output_times=times, q0=q0, v0=v0))
         if deprecated:
             raise ModelError(f"simulate: {sorted(deprecated)} are not keywords of simulate with Radau5: give them to the "
@@ -236,8 +236,6 @@ def simulate(
     if getattr(integrator, "ode", False):  # Tsit5, Dopri5, Kvaerno5: joint-coordinate ODE (analyses/ode.py)
         from .ode import simulate_ode
 
-        times = saveat.times if saveat is not None else output_times
-        dt_out = saveat.dt if saveat is not None else dt_output
         check_simulate(system, dict(t_end=t_end, dt_output=dt_out, t0=t0, output_times=times, q0=q0, v0=v0,
                                     dt_max=deprecated.get("dt_max"), fixed_step=deprecated.get("fixed_step")))
         unknown = sorted(set(deprecated) - {"dt_max", "fixed_step"})
@@ -271,7 +269,6 @@ def simulate(
         raise ValueError(f"t_end ({t_end}) must be greater than t0 ({t0}).")
     if saveat.times is None:
         times = saveat.output_times(t0, t_end)
-    ig = integrator
     fixed_step = ig.fixed_step
     dopts = DriverOptions(
         step=ig.step_options(),
@@ -295,7 +292,7 @@ def simulate(
         _warn_unstable_servos(system, q, v, t0, z0)
     dyn = coordinate_set(system, q, coordinates)
     if dyn.kind != "absolute":
-        q, v, qdd, lam, g0 = _reduced_start(dyn, q, v, qdd, lam, z0)
+        q, v, qdd, lam, g0 = _reduced_start(dyn, q, v, qdd, lam)
     n_newton = dyn.nq + dyn.nc
     # Constants as NumPy arrays: JAX would compile a small executable for each eager op.
     f64, i32 = np.float64, np.int32
@@ -451,7 +448,7 @@ def _warn_unstable_servos(system, q, v, t0, z0):
 
 
 @cached_jit
-def _reduced_start(dyn, q, v, qdd, lam, z0):
+def _reduced_start(dyn, q, v, qdd, lam):
     """The consistent absolute start (q, v, q̈, λ) in the coordinates ``dyn`` (x, ẋ, ẍ, λ_x) and
     the HHT history term g = Φ_xᵀλ_x − Q = −M ẍ."""
     x, xd = dyn.reduce(q, v)

@@ -264,7 +264,8 @@ def sweep(
         batches = sorted(done)
         idx = np.concatenate([np.arange(b * bs, min((b + 1) * bs, n)) for b in batches]) if batches else np.arange(0)
         res = _assemble_result(system, {k: v[idx] for k, v in values.items()}, [done[b] for b in batches], meta, apply)
-        res.variants = idx
+        if res is not None:  # None when no batch finished
+            res.variants = idx
         from ..errors import Interrupted
 
         raise Interrupted(

@@ -186,20 +186,16 @@ class _Equations:
         nq, nc = self.nq, self.nc
         return y[..., :nq], y[..., nq : 2 * nq], y[..., 2 * nq : 2 * nq + nc], y[..., 2 * nq + nc :]
 
-    def PqT(self, q, t, u):
-        """Φ_q(q, t)ᵀ u."""
-        if self.nc == 0:
-            return jnp.zeros_like(q)
-        return jax.vjp(lambda qq: self.dyn.constraints(qq, t), q)[1](u)[0]
-
     def g(self, q, v, U, L, t, h):
         """The non-derivative part of a stage residual (see the module docstring), (N,)."""
         dyn = self.dyn
-        rows = [-h * v + self.PqT(q, t, U), -h * dyn.generalized_forces(q, v, t, self.z) + self.PqT(q, t, L)]
-        if self.nc:
-            phi, phid = jax.jvp(lambda qq, tt: dyn.constraints(qq, tt), (q, t), (v, jnp.ones_like(t)))
-            rows += [-phi, -phid]
-        return jnp.concatenate(rows)
+        Q = -h * dyn.generalized_forces(q, v, t, self.z)
+        if not self.nc:
+            return jnp.concatenate([-h * v, Q])
+        # one linearisation of Φ at (q, t) serves Φ_qᵀU and Φ_qᵀL (a vjp per product built it twice)
+        phi, pull = jax.vjp(lambda qq: dyn.constraints(qq, t), q)
+        _, phid = jax.jvp(lambda qq, tt: dyn.constraints(qq, tt), (q, t), (v, jnp.ones_like(t)))
+        return jnp.concatenate([-h * v + pull(U)[0], Q + pull(L)[0], -phi, -phid])
 
     def residual(self, W, q, v, t, h):
         """Stage residuals (3, N) of unknowns W = (Z_q, Z_v, U, L) per stage."""

@@ -59,9 +59,8 @@ def default_executor(kind: str, backend: str | None = None) -> str:
 class Job:
     """What a worker needs to evaluate a batch (pickled with cloudpickle)."""
 
-    def __init__(self, target, is_builder, names, outputs, simulate_kw, apply=None, kind=None):
-        self.target, self.is_builder, self.names = target, is_builder, list(names)
-        self.kind = kind or ("builder" if is_builder else "system")
+    def __init__(self, target, kind, names, outputs, simulate_kw, apply=None):
+        self.target, self.kind, self.names = target, kind, list(names)  # kind: "system", "builder" or "function"
         self.outputs, self.simulate_kw, self.apply = dict(outputs), dict(simulate_kw), apply
 
 
@@ -193,7 +192,7 @@ def evaluate_batch(job: Job, rows: list[tuple[str, dict]], *, workers: int = 1, 
     t0 = time.perf_counter()
     out: dict[str, dict] = {}
     groups: dict[str, tuple] = {}
-    if job.is_builder:
+    if job.kind == "builder":
         for key, vals in rows:
             try:
                 system = job.target(**vals)
@@ -204,7 +203,7 @@ def evaluate_batch(job: Job, rows: list[tuple[str, dict]], *, workers: int = 1, 
     else:
         groups["system"] = (job.target, [(key, vals, None) for key, vals in rows])
     for base, members in groups.values():
-        if job.is_builder:
+        if job.kind == "builder":
             names = sorted(base.params)
             params = {k: np.stack([np.asarray(m[2].params[k]) for m in members]) for k in names}
         else:

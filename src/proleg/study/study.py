@@ -91,8 +91,7 @@ class Study:
 
     def __init__(self, system_or_builder, space, outputs, simulate=None, *, apply=None, name: str | None = None):
         self.target = system_or_builder
-        self.is_builder = not isinstance(system_or_builder, System)
-        self.kind = "builder" if self.is_builder else "system"
+        self.kind = "system" if isinstance(system_or_builder, System) else "builder"
         if self.is_builder and not callable(system_or_builder):
             raise ModelError(f"Study: expected a System or a builder function; got {type(system_or_builder).__name__}.")
         self.space = Space(space)
@@ -132,20 +131,23 @@ class Study:
                 raise ModelError(f"Study.function: outputs must be names (strings) or {{name: function}}; got {outputs!r}.")
             outputs = {o: _Pick(o) for o in outputs}
         self = cls.__new__(cls)
-        self.target, self.is_builder, self.kind, self.apply, self.simulate = fn, False, "function", None, {}
+        self.target, self.kind, self.apply, self.simulate = fn, "function", None, {}
         self.space = Space(space)
         self.outputs = _checked_outputs(outputs, self.space, "Study.function", "outputs=['stiffness']",
                                         "a name or a function of the returned value")
         self.name = name or getattr(fn, "__name__", "study")
         return self
 
+    @property
+    def is_builder(self) -> bool:
+        """Whether the target is a builder function of the parameters (``kind == "builder"``)."""
+        return self.kind == "builder"
+
     # -- definition ------------------------------------------------------------------------
     def definition(self) -> dict:
         """What makes two studies the same (compared on resume)."""
-        if self.kind == "function":
-            target = {"function": getattr(self.target, "__qualname__", repr(self.target)), "code": code_hash(self.target)}
-        elif self.is_builder:
-            target = {"builder": getattr(self.target, "__qualname__", repr(self.target)), "code": code_hash(self.target)}
+        if self.kind != "system":  # {"function" | "builder": qualified name, "code": hash}
+            target = {self.kind: getattr(self.target, "__qualname__", repr(self.target)), "code": code_hash(self.target)}
         else:
             target = system_fingerprint(self.target)
         d = {
@@ -219,7 +221,7 @@ class Study:
         bs = int(batch_size) if batch_size else default_batch_size(len(todo), workers)
         batches = [todo[i : i + bs] for i in range(0, len(todo), bs)]
         names = list(self.space.dims)
-        job = ex.Job(self.target, self.is_builder, names, self.outputs, self.simulate, self.apply, kind=self.kind)
+        job = ex.Job(self.target, self.kind, names, self.outputs, self.simulate, self.apply)
         client = owned = None
         if executor in ("vmap", "local"):
             gen = ex.run_vmap(job, batches, workers=workers)
