@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ModelError
-from .solid import _signed_volumes, compact_tets, gmsh_model
+from .solid import compact_nodes, compact_tets, gmsh_model, orient_tets
 
 
 def mesh_occ(build, h: float, *, name: str = "proleg_occ", h_min: float | None = None,
@@ -113,15 +113,8 @@ def mesh_extruded(build, h: float, thickness: float, *, name: str = "proleg_extr
             types, _, conn = gmsh.model.mesh.getElements(2, s)
             tri += [np.asarray(c, np.int64).reshape(-1, 3) for t, c in zip(types, conn, strict=True) if t == 2]
         tags, coords, _ = gmsh.model.mesh.getNodes()
-    tags = np.asarray(tags, np.int64)
-    pts = np.asarray(coords, float).reshape(-1, 3)
-    lookup = np.zeros(int(tags.max()) + 1, dtype=np.int64)
-    lookup[tags] = np.arange(tags.size)
-    tri = lookup[np.vstack(tri)]
-    used = np.unique(tri)
-    renum = np.zeros(pts.shape[0], dtype=np.int64)
-    renum[used] = np.arange(used.size)
-    xy, tri = pts[used, :2], np.sort(renum[tri], axis=1)  # sorted: a < b < c in every triangle
+    pts, tri = compact_nodes(np.asarray(tags, np.int64), coords, np.vstack(tri))
+    xy, tri = pts[:, :2], np.sort(tri, axis=1)  # sorted: a < b < c in every triangle
     n2 = xy.shape[0]
     z = np.linspace(0.0, thickness, nz + 1)
     points = np.column_stack([np.tile(xy, (nz + 1, 1)), np.repeat(z, n2)])
@@ -131,10 +124,7 @@ def mesh_extruded(build, h: float, thickness: float, *, name: str = "proleg_extr
         lo, hi = k * n2, (k + 1) * n2
         tets += [np.column_stack(v) for v in ((a + lo, b + lo, c + lo, c + hi), (a + lo, b + lo, b + hi, c + hi),
                                               (a + lo, a + hi, b + hi, c + hi))]
-    tets = np.vstack(tets)
-    vol = _signed_volumes(points, tets)
-    tets[vol < 0] = tets[vol < 0][:, [0, 2, 1, 3]]
-    return points, tets
+    return points, orient_tets(points, np.vstack(tets))
 
 
 def _size_fields(gmsh, h, h_min, curvature_points, refine, fillet_radius, fillet_size, at_z0=False):

@@ -22,6 +22,7 @@ from __future__ import annotations
 from contextlib import contextmanager
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -83,20 +84,46 @@ def gmsh_model(name: str):
             gmsh.model.remove()
 
 
+def compact_nodes(tags, coords, cells_tags):
+    """gmsh node tags, coordinates and cells of any kind (as node tags) → (points (n, 3), cells):
+    only the nodes the cells use, renumbered from 0."""
+    pts = np.asarray(coords, float).reshape(-1, 3)
+    lookup = np.zeros(int(np.max(tags)) + 1, dtype=np.int64)
+    lookup[tags] = np.arange(np.size(tags))
+    cells = lookup[cells_tags]
+    used = np.unique(cells)
+    renum = np.zeros(pts.shape[0], dtype=np.int64)
+    renum[used] = np.arange(used.size)
+    return pts[used], renum[cells]
+
+
+def orient_tets(points, tets):
+    """``tets`` (m, 4) with every negatively oriented tetrahedron's vertices 1 and 2 swapped (in place)."""
+    vol = _signed_volumes(points, tets)
+    tets[vol < 0] = tets[vol < 0][:, [0, 2, 1, 3]]
+    return tets
+
+
 def compact_tets(tags, coords, tets_tags):
     """gmsh node tags, coordinates and tetrahedra (as node tags) → (points (n, 3), tets (m, 4)):
     only the nodes the tetrahedra use, renumbered from 0, every tet positively oriented."""
-    pts = np.asarray(coords, float).reshape(-1, 3)
-    lookup = np.zeros(int(tags.max()) + 1, dtype=np.int64)
-    lookup[tags] = np.arange(tags.size)
-    tets = lookup[tets_tags]
-    used = np.unique(tets)
-    renum = np.zeros(pts.shape[0], dtype=np.int64)
-    renum[used] = np.arange(used.size)
-    pts, tets = pts[used], renum[tets]
-    vol = _signed_volumes(pts, tets)
-    tets[vol < 0] = tets[vol < 0][:, [0, 2, 1, 3]]
-    return pts, tets
+    pts, tets = compact_nodes(tags, coords, tets_tags)
+    return pts, orient_tets(pts, tets)
+
+
+def hooke_stress(G, material):
+    """Stress (3, 3, ...) [Pa] of the displacement gradient ``G`` (3, 3, ...) for an isotropic
+    ``material`` (its Lamé constants)."""
+    eps = 0.5 * (G + np.swapaxes(G, 0, 1))
+    lam, mu = material.lame
+    tr = eps[0, 0] + eps[1, 1] + eps[2, 2]
+    return 2 * mu * eps + lam * tr * np.eye(3).reshape((3, 3) + (1,) * (G.ndim - 2))
+
+
+def von_mises(S):
+    """von Mises stress sqrt(3/2 s:s) (s the deviator) of stresses ``S`` (3, 3, ...)."""
+    dev = S - (S[0, 0] + S[1, 1] + S[2, 2]) / 3 * np.eye(3).reshape((3, 3) + (1,) * (S.ndim - 2))
+    return np.sqrt(1.5 * np.einsum("ij...,ij...->...", dev, dev))
 
 
 def _signed_volumes(points, tets) -> np.ndarray:
@@ -282,21 +309,20 @@ class SolidModel:
         which sits inside the element at a mesh-dependent depth below a surface peak, the
         averaged vertex value at a fillet converges with the mesh to the surface stress.
         """
-        from skfem import Basis
-
-        X = np.array([[0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])  # reference vertices
-        corner = Basis(self.mesh, self.basis.elem, quadrature=(X, np.full(4, 1.0 / 24)))
-        G = corner.interpolate(u).grad  # (3, 3, ne, 4): at vertex k of each element
-        eps = 0.5 * (G + np.swapaxes(G, 0, 1))
-        lam, mu = self.material.lame
-        tr = eps[0, 0] + eps[1, 1] + eps[2, 2]
-        sig = 2 * mu * eps + lam * tr * np.eye(3)[:, :, None, None]  # (3, 3, ne, 4)
+        sig = hooke_stress(self._corner_basis.interpolate(u).grad, self.material)  # (3, 3, ne, 4): at vertex k of each element
         total = np.zeros((self.points.shape[0], 3, 3))
         np.add.at(total, self.tets.ravel(), np.moveaxis(sig, (0, 1), (2, 3)).reshape(-1, 3, 3))
         count = np.bincount(self.tets.ravel(), minlength=self.points.shape[0])
         sig = total / np.maximum(count, 1)[:, None, None]
-        dev = sig - np.trace(sig, axis1=1, axis2=2)[:, None, None] * np.eye(3) / 3.0
-        return sig, np.sqrt(1.5 * np.einsum("kij,kij->k", dev, dev))
+        return sig, von_mises(np.moveaxis(sig, (1, 2), (0, 1)))
+
+    @cached_property
+    def _corner_basis(self):
+        """The element basis evaluated at each element's four vertices (built once per model)."""
+        from skfem import Basis
+
+        X = np.array([[0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])  # reference vertices
+        return Basis(self.mesh, self.basis.elem, quadrature=(X, np.full(4, 1.0 / 24)))
 
     def _inside(self, points) -> np.ndarray:
         P = np.atleast_2d(np.asarray(points, float))
