@@ -26,6 +26,20 @@ read is ignored with a :class:`~proleg.errors.ProlegWarning` and rewritten. Unde
 
 ``PROLEG_CACHE_DIR=""`` turns this cache off with JAX's; entries live in its ``export/``
 folder. ``proleg.compile_cache.stats`` counts traces (misses) and loads (hits) in this process.
+
+XLA options by kind of function (:data:`XLA_OPTIONS`, :func:`xla_options`). Most of a cold
+start is XLA's CPU backend compiling many small kernels, and two of its defaults cost far more
+compile time than they give back on proleg's small dense matrices (the README's double
+pendulum, HyQ leg drop and 7-link chain, bench/compile_cache.py --table and README):
+
+- ``"loop"`` (the integration loops, run thousands of steps): XLA's MLIR fusion emitters off
+  (``xla_cpu_use_fusion_emitters``), the classic LLVM IR emitters instead: the HyQ leg drop's
+  compile 20–22 s → 15 s with the same time per step (656–660 vs 608–683 µs, load ~1); the
+  7-link chain 98 → 104 µs/step.
+- ``"once"`` (initial conditions, post-processing, Jacobians: a few calls per run): also LLVM's
+  optimisation level 0: these compile 3–5× faster and run 2–3× slower, microseconds per call.
+
+``PROLEG_XLA_OPTIONS=default`` compiles everything with XLA's own defaults.
 """
 
 from __future__ import annotations
@@ -50,6 +64,32 @@ import jax
 import numpy as np
 
 _PKG_DIR = os.path.dirname(os.path.abspath(__file__))
+
+#: ``compiler_options`` for ``jax.jit`` by kind of function (module docstring: the measurements).
+XLA_OPTIONS = {
+    "loop": {"xla_cpu_use_fusion_emitters": False},
+    "once": {"xla_cpu_use_fusion_emitters": False, "xla_backend_optimization_level": 0},
+}
+
+
+def xla_options(kind: str | None) -> dict | None:
+    """The ``compiler_options`` for a function of ``kind`` ("loop", "once"; None: XLA's defaults),
+    or None when ``PROLEG_XLA_OPTIONS=default``. The CPU options are inert on other backends."""
+    if kind is None or os.environ.get("PROLEG_XLA_OPTIONS", "").strip().lower() == "default":
+        return None
+    return dict(XLA_OPTIONS[kind])
+
+
+def jit(fn=None, *, xla: str = "once", static_argnums=()):
+    """Like ``jax.jit(fn, static_argnums=...)``, compiled with :func:`xla_options` of ``xla`` when
+    called with concrete arguments (the compiled executables are kept in this process, not on
+    disk); under an outer ``jit``/``vmap``/``grad`` it is plain ``jax.jit`` (XLA takes
+    ``compiler_options`` only from the outermost compile). Usable as a decorator."""
+    if fn is None:
+        return lambda f: jit(f, xla=xla, static_argnums=static_argnums)
+    return CachedJit(fn, static_argnums, xla, disk=False)
+
+
 stats = {"exported": 0, "loaded": 0, "unkeyed": 0, "corrupt": 0}
 
 
@@ -363,9 +403,11 @@ class CachedJit:
 
     MEMO = 16  # compiled executables kept per function in this process (each maps its machine code)
 
-    def __init__(self, fn, static_argnums=()):
+    def __init__(self, fn, static_argnums=(), xla: str | None = "once", disk: bool = True):
         self.fn = fn
         self.static_argnums = tuple(static_argnums)
+        self.options = xla_options(xla)  # given to XLA at the top-level compiles made here
+        self.disk = disk
         self.jitted = fn if hasattr(fn, "lower") else jax.jit(fn, static_argnums=self.static_argnums)
         self.name = f"{getattr(fn, '__module__', '?')}.{getattr(fn, '__qualname__', getattr(fn, '__name__', '?'))}"
         self._memo: OrderedDict = OrderedDict()
@@ -389,7 +431,7 @@ class CachedJit:
         a call, arrays or ``jax.ShapeDtypeStruct``."""
         entry = self._entry(args)
         if entry is None:
-            return self.jitted.lower(*args).compile()
+            return self.jitted.lower(*args).compile(compiler_options=self.options)
         treedef = jax.tree_util.tree_structure(self._split(args)[1])
 
         def call(*dyn_args):
@@ -403,8 +445,10 @@ class CachedJit:
     # -- internals ---------------------------------------------------------------------------
     def _entry(self, args):
         """The compiled flat function for these arguments, or None (plain jit)."""
-        path = cache_dir()
-        if path is None or _platform() != "cpu":  # single runs go to the CPU (analyses/placement.py)
+        if _platform() != "cpu":  # single runs go to the CPU (analyses/placement.py)
+            return None
+        path = cache_dir() if self.disk else None
+        if path is None and self.options is None:
             return None
         static, dyn = self._split(args)
         leaves, treedef = jax.tree_util.tree_flatten(dyn)
@@ -428,19 +472,22 @@ class CachedJit:
         return entry
 
     def _build(self, path, static, treedef, avals):
-        try:
-            key = fingerprint(_environment_key(), self.name, self.fn, static, treedef, avals)
-        except Unkeyable as exc:
-            stats["unkeyed"] += 1
-            stats["why_unkeyed"] = (stats.get("why_unkeyed", []) + [f"{self.name}: {exc}"])[-10:]
-            return None
+        specs = [jax.ShapeDtypeStruct(s, np.dtype(d), weak_type=w) for s, d, w in avals]
+        key = None
+        if path is not None:
+            try:
+                key = fingerprint(_environment_key(), self.name, self.fn, static, treedef, avals)
+            except Unkeyable as exc:
+                stats["unkeyed"] += 1
+                stats["why_unkeyed"] = (stats.get("why_unkeyed", []) + [f"{self.name}: {exc}"])[-10:]
+        if key is None:  # not on disk: compiled here, with this function's XLA options
+            return jax.jit(self._flat(static, treedef)).lower(*specs).compile(compiler_options=self.options)
         stem = "".join(c if c.isalnum() or c == "_" else "_" for c in getattr(self.fn, "__name__", "fn"))
         file = os.path.join(path, "export", f"{stem}-{key[:40]}.pkl")
-        specs = [jax.ShapeDtypeStruct(s, np.dtype(d), weak_type=w) for s, d, w in avals]
         exported = _load(file)
         if exported is not None:
             try:
-                compiled = jax.jit(exported.call).lower(*specs).compile()
+                compiled = jax.jit(exported.call).lower(*specs).compile(compiler_options=self.options)
                 stats["loaded"] += 1
                 return compiled
             except Exception as exc:  # an entry that unpickled into something unusable
@@ -450,11 +497,10 @@ class CachedJit:
             return None
         _save(file, exported)
         stats["exported"] += 1
-        return jax.jit(exported.call).lower(*specs).compile()
+        return jax.jit(exported.call).lower(*specs).compile(compiler_options=self.options)
 
-    def _export(self, static, treedef, specs):
-        from jax import export
-
+    def _flat(self, static, treedef):
+        """``fn`` as a function of the flat leaves of its non-static arguments."""
         sidx = self.static_argnums
 
         def flat(*lv):
@@ -464,8 +510,13 @@ class CachedJit:
             return self.jitted(*full)
 
         flat.__name__ = flat.__qualname__ = getattr(self.fn, "__name__", "flat")  # JAX's logs name the function
+        return flat
+
+    def _export(self, static, treedef, specs):
+        from jax import export
+
         try:
-            return export.export(jax.jit(flat), platforms=("cpu",))(*specs)
+            return export.export(jax.jit(self._flat(static, treedef)), platforms=("cpu",))(*specs)
         except Exception:  # an export limitation (or the user's error, which plain jit raises again)
             return None
 
@@ -494,6 +545,10 @@ def _save(file, exported) -> None:
         blob = pickle.dumps(dataclasses.replace(exported, _get_vjp=None))
     except Exception:  # an output structure that does not pickle: keep it in this process only
         return
+    _write(file, blob)
+
+
+def _write(file, blob: bytes) -> None:
     try:
         os.makedirs(os.path.dirname(file), exist_ok=True)
         tmp = f"{file}.{os.getpid()}.{threading.get_ident()}.tmp"
@@ -515,8 +570,10 @@ def clear() -> None:
             f._memo.clear()
 
 
-def cached_jit(fn=None, *, static_argnums=()):
-    """Decorator: :class:`CachedJit` (``jax.jit`` plus the on-disk cache of the lowered function)."""
+def cached_jit(fn=None, *, static_argnums=(), xla: str | None = "once"):
+    """Decorator: :class:`CachedJit` (``jax.jit`` plus the on-disk cache of the lowered function),
+    compiled with :func:`xla_options` of ``xla`` ("once" or "loop"; a ``fn`` that is already a
+    ``jax.jit`` object keeps its own options when called plainly)."""
     if fn is None:
-        return lambda f: CachedJit(f, static_argnums)
-    return CachedJit(fn, static_argnums)
+        return lambda f: CachedJit(f, static_argnums, xla)
+    return CachedJit(fn, static_argnums, xla)

@@ -12,6 +12,7 @@ from ..assembly.system import System, constraints, generalized_forces, unconnect
 from ..errors import ConvergenceError, ModelError
 from .checks import check_equilibrium
 from .placement import placed
+from ..compile_cache import jit
 
 
 @dataclass
@@ -62,7 +63,7 @@ def _residual(system, x, t, nq):
     return jnp.concatenate([f, phi])
 
 
-@jax.jit
+@jit
 def _newton_pieces(system, x, t):
     nq = system.topo.nq
     r = _residual(system, x, t, nq)
@@ -70,7 +71,7 @@ def _newton_pieces(system, x, t):
     return r, J
 
 
-@jax.jit
+@jit
 def _res(system, x, t):
     return _residual(system, x, t, system.topo.nq)
 
@@ -85,7 +86,7 @@ def check_connected(system: System):
         )
 
 
-@jax.jit
+@jit
 def _tangent_pieces(system, q, t):
     """Φ, Φ_q, generalized force Q(q, 0), and the stiffness ∂(Φ_qᵀλ − Q)/∂q with least-squares λ."""
     Pq = jax.jacfwd(lambda qq: constraints(system, qq, t))(q)
@@ -170,7 +171,7 @@ def solve_equilibrium(
     return Equilibrium(system, np.asarray(x[:nq]), np.asarray(x[nq:]), float(t), fr, cr, it)
 
 
-@jax.jit
+@jit
 def _project_step(system, q, t):
     from ..solvers.initial import _normalize_p
 

@@ -12,6 +12,7 @@ from ..assembly.system import System, constraints, generalized_forces
 from ..solvers.initial import mass_matrix
 from .checks import check_linearize
 from .placement import placed
+from ..compile_cache import jit
 
 
 @dataclass
@@ -84,7 +85,7 @@ class LinearModel:
         return Modes(fn, np.array(fd), np.array(zz), shapes)
 
 
-@jax.jit
+@jit
 def _linear_pieces(system, q0, lam, t, z0):
     from ..solvers.driver import sample_controllers
 

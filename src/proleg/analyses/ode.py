@@ -22,6 +22,7 @@ from ..solvers import ode
 from ..solvers.driver import sample_controllers
 from .placement import _any_traced
 from .result import Result
+from ..compile_cache import jit
 
 
 def _output_times(t0, t_end, dt_output, output_times):
@@ -38,13 +39,13 @@ def _output_times(t0, t_end, dt_output, output_times):
     return t0, times
 
 
-@jax.jit
+@jit
 def _start(dyn, q, v):
     x, u = dyn.reduce(q, v)
     return x, u
 
 
-_absolute = jax.jit(jax.vmap(lambda dyn, x, u: dyn.absolute(x, u), in_axes=(None, 0, 0)))
+_absolute = jit(jax.vmap(lambda dyn, x, u: dyn.absolute(x, u), in_axes=(None, 0, 0)))
 
 
 def _run_free(integrator, dyn, y0, z, times, tol, h, dt_max, fixed):
@@ -70,8 +71,8 @@ def _run_sampled(integrator, dyn, y0, z0, grid, tick, tol, h, dt_max, fixed):
     return ys, jnp.concatenate([z0[None], zs]), ns, nr, ok
 
 
-_run_free_jit = jax.jit(_run_free, static_argnums=(0, 7, 8))
-_run_sampled_jit = jax.jit(_run_sampled, static_argnums=(0, 8, 9))
+_run_free_jit = jit(_run_free, xla="loop", static_argnums=(0, 7, 8))
+_run_sampled_jit = jit(_run_sampled, xla="loop", static_argnums=(0, 8, 9))
 
 
 def simulate_ode(system, t_end, dt_output=None, *, t0=0.0, output_times=None, integrator, q0=None, v0=None, dt_max=None, fixed_step=None, throw=True):

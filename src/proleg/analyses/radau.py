@@ -22,6 +22,7 @@ from ..solvers.initial import _consistent_state, initial_z, sample_controllers, 
 from .ode import _absolute, _output_times
 from .placement import _any_traced
 from .result import Result
+from ..compile_cache import jit
 
 
 def _run(cfg, dyn, q, v, lam, a, z, times, stops, is_tick, tol, h0, dt_max):
@@ -32,10 +33,10 @@ def _run(cfg, dyn, q, v, lam, a, z, times, stops, is_tick, tol, h0, dt_max):
     return radau.integrate(cfg, dyn, sample, q, v, lam, a, z, w, times, stops, is_tick, tol, h0, dt_max)
 
 
-_run_jit = jax.jit(_run, static_argnums=(0,))
+_run_jit = jit(_run, xla="loop", static_argnums=(0,))
 
 
-@jax.jit
+@jit
 def _reduce(dyn, q, v, qdd, lam):
     """The consistent absolute start (q, v, q̈, λ) in the coordinates ``dyn``."""
     x, xd = dyn.reduce(q, v)

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..assembly.constraints import joint_angle, joint_translation
 from ..assembly.system import StateView, System, constraints, kinematic_energy_terms, kinematics
-from ..compile_cache import cached_jit
+from ..compile_cache import cached_jit, jit
 from ..errors import ModelError, Status
 from ..spatial.rotation import L_of_p, euler_zyx_deg
 from ..solvers.initial import kkt_accelerations
@@ -419,9 +419,10 @@ def element_units(system: System, nz: int) -> dict:
     return out
 
 
-def _joint_reactions_one(system: System, qk, tk, lk):
+def _joint_reactions_one(system: System, qk, tk, lk, Pq=None, kin=None):
     """Reactions on part I of every constraint owner (joints, then motions) at one time, note §5:
-    (F, T, F_local, T_local, angle, translation), each (nowner, ...)."""
+    (F, T, F_local, T_local, angle, translation), each (nowner, ...). ``Pq`` (Φ_q at (qk, tk))
+    and ``kin`` (``kinematics(system, qk, ...)``): already evaluated, if the caller has them."""
     topo = system.topo
     ct = topo.ct
     nowner = len(ct.owners)
@@ -433,9 +434,12 @@ def _joint_reactions_one(system: System, qk, tk, lk):
     bi = topo.marker_body[mi]
     bj = topo.marker_body[mj]
     nb = topo.nbody
-    _, vjp = jax.vjp(lambda qq: constraints(system, qq, tk), qk)
-    Qc = -jax.vmap(lambda m: vjp(lk * m)[0])(jnp.asarray(masks))  # (nowner, nq)
-    bk, mk = kinematics(system, qk)
+    if Pq is None:
+        _, vjp = jax.vjp(lambda qq: constraints(system, qq, tk), qk)
+        Qc = -jax.vmap(lambda m: vjp(lk * m)[0])(jnp.asarray(masks))  # (nowner, nq)
+    else:
+        Qc = -(jnp.asarray(masks) * lk) @ Pq
+    bk, mk = kinematics(system, qk) if kin is None else kin
     Qb = Qc[:, : 7 * nb].reshape(nowner, nb, 7)
 
     def side(b, m):
@@ -474,8 +478,8 @@ def _owner_markers(topo):
 
 # Module-level compiled post-processing: the System is an argument (its topology is static), so
 # every Result of the same model reuses the same executables.
-def _one_outputs(system, q, v, t, z):
-    bk, mk = kinematics(system, q, v)
+def _one_outputs(system, q, v, t, z, kin=None):
+    bk, mk = kinematics(system, q, v) if kin is None else kin
     ctx = StateView(system.topo, bk, mk, t, z, system.params)
     return {
         g.kind: {k: val for k, (val, unit) in g.outputs(system.params, mk, t, ctx).items()}
@@ -487,19 +491,21 @@ def _one_outputs(system, q, v, t, z):
 def _post_one(system, q, v, t, z):
     """Everything a table needs at one output: accelerations and multipliers (KKT, note §5), joint
     reactions, element outputs, kinetic and potential energy."""
-    qdd, lam = kkt_accelerations(system, q, v, t, z)
+    Pq = jax.jacfwd(lambda qq: constraints(system, qq, t))(q)
+    qdd, lam = kkt_accelerations(system, q, v, t, z, Pq=Pq)
     T, V = kinematic_energy_terms(system, q, v, t, z)
-    return {"qdd": qdd, "lam": lam, "reactions": _joint_reactions_one(system, q, t, lam),
-            "outputs": _one_outputs(system, q, v, t, z), "energy": (T, V)}
+    kin = kinematics(system, q, v)
+    return {"qdd": qdd, "lam": lam, "reactions": _joint_reactions_one(system, q, t, lam, Pq, kin),
+            "outputs": _one_outputs(system, q, v, t, z, kin), "energy": (T, V)}
 
 
 # One executable for all the post-processing of a run (one compile per model and output count):
 # simulate() compiles it while the run compiles (prepare_outputs), so the first table costs no
 # second compile.
-post_batch = cached_jit(jax.vmap(_post_one, in_axes=(None, 0, 0, 0, 0)))
-_marker_batch = jax.jit(jax.vmap(lambda s, q, v: kinematics(s, q, v)[1], in_axes=(None, 0, 0)))
-_residual_batch = jax.jit(jax.vmap(lambda s, q, t: jnp.max(jnp.abs(constraints(s, q, t))), in_axes=(None, 0, 0)))
-_outputs_batch = jax.jit(jax.vmap(_one_outputs, in_axes=(None, 0, 0, 0, 0)))
+post_batch = cached_jit(jax.vmap(_post_one, in_axes=(None, 0, 0, 0, 0)), xla="loop")
+_marker_batch = jit(jax.vmap(lambda s, q, v: kinematics(s, q, v)[1], in_axes=(None, 0, 0)))
+_residual_batch = jit(jax.vmap(lambda s, q, t: jnp.max(jnp.abs(constraints(s, q, t))), in_axes=(None, 0, 0)))
+_outputs_batch = jit(jax.vmap(_one_outputs, in_axes=(None, 0, 0, 0, 0)))
 
 
 def _atomic_parquet(df, path) -> None:

@@ -458,7 +458,7 @@ def _reduced_start(dyn, q, v, qdd, lam):
 
 _to_absolute = cached_jit(jax.vmap(lambda dyn, x, xd: dyn.absolute(x, xd), in_axes=(None, 0, 0)))
 # The integration loop (solvers/driver.py), its trace and lowering kept across processes.
-advance = cached_jit(_advance_jit, static_argnums=(1, 2, 7))
+advance = cached_jit(_advance_jit, static_argnums=(1, 2, 7), xla="loop")
 
 
 def _failure_message(system, status, t, worst):

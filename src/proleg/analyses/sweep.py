@@ -33,6 +33,7 @@ from .checks import check_simulate, check_sweep_values
 from .result import Result
 from ..solvers.galpha import GeneralizedAlpha
 from .simulate import RunOptions, simulate, simulate_kwargs
+from ..compile_cache import xla_options
 
 # Default largest batch on the CPU: per lane-step, 1,000 lanes cost 18 µs, 500 13 µs, and two
 # workers ran 1,000 variants 15 % faster in batches of 250 than of 500 (bench/vmap_batch.py).
@@ -231,7 +232,7 @@ def sweep(
 
     t0 = time.perf_counter()
     first = [jnp.asarray(values[k][:bs]) for k in names]
-    fn = jax.jit(jax.vmap(one)).lower(first).compile()
+    fn = jax.jit(jax.vmap(one)).lower(first).compile(compiler_options=xla_options("loop"))
     t_compile = time.perf_counter() - t0
 
     def run(b):

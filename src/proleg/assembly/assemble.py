@@ -26,6 +26,7 @@ from .kinematics import StateView, kinematics
 from .select import Select
 from .sparsity import jacobian_coloring
 from .system import System, Topology, _dof_at_assembly, _jit_constraints_and_jacobian, initial_coordinates
+from ..compile_cache import jit
 
 
 # ---------------------------------------------------------------------------------------------
@@ -184,7 +185,7 @@ def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
     if ctrl is not None:
         _check_controllers(system, ctrl)
     if ctrl is not None and "controller_setpoint0" in params:
-        th = jax.jit(lambda s, q, v: joint_coordinate(ctrl.pid_oh_i, ctrl.pid_oh_j, ctrl.pid_rot, kinematics(s, q, v)[1])[0])(
+        th = jit(lambda s, q, v: joint_coordinate(ctrl.pid_oh_i, ctrl.pid_oh_j, ctrl.pid_rot, kinematics(s, q, v)[1])[0])(
             system, jnp.asarray(q0), jnp.asarray(v0)
         )
         system = system.with_params(controller_setpoint0=th)

@@ -56,6 +56,7 @@ from .kinematics import BodyKin, marker_kin
 from .sparsity import Coloring
 from .constraints import _joint_rows
 from .system import System, body_loads, element_power
+from ..compile_cache import jit
 
 TREE_KINDS = ("revolute", "prismatic", "cylindrical", "fixed")
 ROT, TRANS, FLOAT_R, FLOAT_P = 0, 1, 2, 3
@@ -223,8 +224,8 @@ def build_joint_tree(system: System) -> JointTree:
         import scipy.linalg
 
         jc = JointCoordinates(_concrete(system), tree)
-        x0, _ = jax.jit(jc.reduce)(system.params["q_init"], system.params["v_init"])
-        jac = jax.jit(jax.jacfwd(lambda x: jc._loop_rows(x, 0.0)))
+        x0, _ = jit(jc.reduce)(system.params["q_init"], system.params["v_init"])
+        jac = jit(jax.jacfwd(lambda x: jc._loop_rows(x, 0.0)))
         rng = np.random.default_rng(0)
         J0 = np.asarray(jac(x0))
         G = [J0] + [np.asarray(jac(x0 + rng.uniform(-1.0, 1.0, x0.shape) * (tree.dof_type <= TRANS))) for _ in range(6)]

@@ -27,6 +27,7 @@ import numpy as np
 from ..assembly.extensions import ControllerGroup, joint_coordinate
 from ..assembly.system import System, constraints, generalized_forces, kinematics
 from ..solvers.initial import mass_matrix
+from ..compile_cache import jit
 
 
 def _pids(system: System):
@@ -44,7 +45,7 @@ def _checked(g, pids):
     return [getattr(g.actuators.get(e.actuator_ref), "valve_time_constant", None) is None for e in pids]
 
 
-@jax.jit
+@jit
 def _command_gains(system: System, q, v, t, z):
     """∂θ̈_k/∂cmd_k for every PID k: the joint acceleration per unit actuator command."""
     g, pids = _pids(system)

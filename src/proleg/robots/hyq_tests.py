@@ -41,6 +41,7 @@ from ..model.control import Motion
 from ..units import deg
 from . import hyq_data as D
 from .hyq_leg import cylinder_forces, hyq_leg, joint_angles
+from ..compile_cache import jit
 
 __all__ = [
     "BenchTest",
@@ -138,7 +139,7 @@ def _contact_names(result):
 _TORQUE_MARKERS = ("hip.I", "hip.J", "knee.I", "knee.J", "hip_actuator.I", "hip_actuator.J", "knee_actuator.I", "knee_actuator.J")
 
 
-@jax.jit
+@jit
 def _torque_pieces(system, q, t):
     """Φ_q, ∂(z, θ1, θ2)/∂q, ∂(ℓ_hip, ℓ_knee)/∂q and the generalized forces without actuators."""
     from ..analyses.simulate import initial_z

@@ -24,6 +24,7 @@ from ..errors import Status
 from ..assembly.coordinates import Absolute
 from .galpha import StepOptions, StepState, lu_apply, rarely, step
 from .initial import kkt_accelerations, sample_controllers
+from ..compile_cache import jit
 
 
 @dataclass(frozen=True)
@@ -45,7 +46,7 @@ class DriverOptions:
 
 # Compiled once per model (the System's topology is static): the first sample of a run, or the
 # static controller law in statics.
-sample_controllers_first = jax.jit(partial(sample_controllers, first=True))
+sample_controllers_first = jit(partial(sample_controllers, first=True))
 
 
 def _sample_update(dyn, st: StepState):

@@ -28,13 +28,14 @@ def gamma_rhs(system: System, q, v, t):
     return -jax.jvp(df, (jnp.zeros(()),), (jnp.ones(()),))[1]
 
 
-def kkt_accelerations(system: System, q, v, t, z=None):
-    """Solve [[M, Φ_qᵀ], [Φ_q, 0]] [q̈; λ] = [Q; γ] (``system``: a System or a coordinate set)."""
+def kkt_accelerations(system: System, q, v, t, z=None, M=None, Pq=None, Q=None):
+    """Solve [[M, Φ_qᵀ], [Φ_q, 0]] [q̈; λ] = [Q; γ] (``system``: a System or a coordinate set).
+    ``M``, ``Pq`` (Φ_q) and ``Q``: already evaluated at (q, v, t, z), if the caller has them."""
     dyn = Absolute.of(system)
     nq = q.shape[0]
-    M = mass_matrix(dyn, q)
-    Pq = jax.jacfwd(lambda qq: dyn.constraints(qq, t))(q)
-    Q = dyn.generalized_forces(q, v, t, z)
+    M = mass_matrix(dyn, q) if M is None else M
+    Pq = jax.jacfwd(lambda qq: dyn.constraints(qq, t))(q) if Pq is None else Pq
+    Q = dyn.generalized_forces(q, v, t, z) if Q is None else Q
     g = gamma_rhs(dyn, q, v, t)
     nc = Pq.shape[0]
     S = jnp.block([[M, Pq.T], [Pq, jnp.zeros((nc, nc))]])
@@ -68,34 +69,42 @@ def _ic_positions(system: System, q_user, t0, n_iter: int):
     q_user = _normalize_p(q_user, nb)
 
     def gn(q, _):
-        phi = constraints(system, q, t0)
-        Pq = jax.jacfwd(lambda qq: constraints(system, qq, t0))(q)
+        Pq, phi = _constraints_and_jacobian(system, q, t0)
         nq, nc = q.shape[0], phi.shape[0]
         S = jnp.block([[jnp.eye(nq), Pq.T], [Pq, jnp.zeros((nc, nc))]])
         dx = jnp.linalg.solve(S, jnp.concatenate([q_user - q, -phi]))
         return _normalize_p(q + dx[:nq], nb), None
 
     q, _ = jax.lax.scan(gn, q_user, None, length=n_iter)
-    return q, jnp.max(jnp.abs(constraints(system, q, t0)))
+    return q
+
+
+def _constraints_and_jacobian(system: System, q, t):
+    """(Φ_q, Φ) at (q, t) from one forward-mode pass (Φ traced once, not again for its value)."""
+    def both(qq):
+        phi = constraints(system, qq, t)
+        return phi, phi
+
+    return jax.jacfwd(both, has_aux=True)(q)
 
 
 @cached_jit(static_argnums=(4,))
 def _ic(system: System, q_user, v_user, t0, n_iter: int, z0):
     """One compiled initial-conditions analysis: positions (Gauss-Newton), velocities (M-weighted
     projection), a controller sample at t0, accelerations and multipliers (KKT), powers."""
-    q, res = _ic_positions(system, q_user, t0, n_iter)
+    q = _ic_positions(system, q_user, t0, n_iter)
     M = mass_matrix(system, q)
-    Pq = jax.jacfwd(lambda qq: constraints(system, qq, t0))(q)
+    Pq, phi = _constraints_and_jacobian(system, q, t0)
     Pt = jax.jacfwd(lambda tt: constraints(system, q, tt))(t0)
     nq, nc = q.shape[0], Pq.shape[0]
     S = jnp.block([[M, Pq.T], [Pq, jnp.zeros((nc, nc))]])
     v = jnp.linalg.solve(S, jnp.concatenate([M @ v_user, -Pt]))[:nq]
     z = sample_controllers(system, t0, q, v, z0, True)
-    qdd, lam = kkt_accelerations(system, q, v, t0, z)
+    Q = generalized_forces(system, q, v, t0, z)
+    qdd, lam = kkt_accelerations(system, q, v, t0, z, M=M, Pq=Pq, Q=Q)
     # HHT carries g = (Φ_qᵀλ − Q) of the previous step; start it consistently (not 0).
-    _, vjp = jax.vjp(lambda qq: constraints(system, qq, t0), q)
-    g = vjp(lam)[0] - generalized_forces(system, q, v, t0, z)
-    return q, v, qdd, lam, z, (power_terms(system, q, v, t0, z), g), res
+    g = Pq.T @ lam - Q
+    return q, v, qdd, lam, z, (power_terms(system, q, v, t0, z), g), jnp.max(jnp.abs(phi))
 
 
 def consistent_state(system: System, q_user=None, v_user=None, t0=0.0, z0=None, tol=1e-10):
