@@ -59,13 +59,15 @@ def main():
         store = Path(tempfile.mkdtemp(prefix=f"study-{ex}-"))
         t0 = time.perf_counter()
         if ex == "sequential":
+            from proleg.analyses.simulate import simulate_kwargs
             from proleg.assembly.system import System
 
             table = study.design("lhs", args.n, seed=1)
             apply = study.apply or System.with_params
             ok = 0
             for r in table.to_dict("records"):
-                res = pl.simulate(apply(study.target, {k: r[k] for k in study.space.dims}), progress=False, throw=False, **study.simulate)
+                res = pl.simulate(apply(study.target, {k: r[k] for k in study.space.dims}), progress=False, throw=False,
+                                  **simulate_kwargs(study.simulate))
                 ok += res.ok
         else:
             tab = study.run(design="lhs", n=args.n, seed=1, executor=ex, store=store, workers=None if ex == "vmap" else 2, progress=False)

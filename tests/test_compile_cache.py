@@ -149,3 +149,48 @@ def test_clear_drops_executables_and_reloads_from_disk(cache):
     assert not f._memo
     np.testing.assert_array_equal(f(x, 5.0), a)
     assert cc.stats["loaded"] == loaded + 1
+
+
+def test_xla_options_reach_the_top_level_compile_and_not_nested_ones(tmp_path, monkeypatch):
+    """XLA refuses ``compiler_options`` on a nested jit, so they go to the compile proleg makes
+    for concrete arguments only. An invalid option proves which compiles receive them."""
+    monkeypatch.setenv("PROLEG_CACHE_DIR", "")
+    f = cc.jit(scaled, static_argnums=(1,))
+    assert f.options == cc.XLA_OPTIONS["once"]
+    x = jnp.linspace(0.0, 1.0, 4)
+    np.testing.assert_allclose(f(x, 2.0), 2.0 * np.sin(np.asarray(x)), rtol=1e-15)
+    f.options = {"xla_cpu_use_fusion_emitters": "not-a-bool"}
+    f._memo.clear()
+    with pytest.raises(Exception, match="xla_cpu_use_fusion_emitters"):
+        f(x, 3.0)  # a top-level compile: the options reach XLA
+    np.testing.assert_allclose(jax.jit(lambda y: f(y, 3.0))(x), 3.0 * np.sin(np.asarray(x)), rtol=1e-15)  # nested: plain jit
+    np.testing.assert_allclose(jax.grad(lambda y: f(y, 3.0).sum())(x), 3.0 * np.cos(np.asarray(x)), rtol=1e-15)
+    monkeypatch.setenv("PROLEG_XLA_OPTIONS", "default")
+    assert cc.xla_options("loop") is None
+
+
+def test_xla_options_do_not_change_the_solution(monkeypatch):
+    """The compile-time options (fusion emitters off, LLVM level 0 for one-shot functions) change
+    round-off only: a driven spin and a pendulum swing equal XLA's defaults to 1e-10."""
+    import proleg.analyses.result as R
+    import proleg.analyses.simulate as S
+    import proleg.solvers.initial as I
+
+    monkeypatch.setenv("PROLEG_CACHE_DIR", "")
+    m = pl.Model("swing", gravity=(0, 0, -9.81))
+    arm = m.add_part("arm", 1.0, (0.01, 0.05, 0.05), (0.5, 0, 0))
+    m.add_joint(pl.Revolute("pin", m.ground, arm, at=(0, 0, 0), axis=(0, 1, 0)))
+    system = pl.assemble(m)
+
+    def run():
+        res = pl.simulate(system, t_end=0.5, dt_output=0.05, coordinates="absolute")
+        return res.q[-1], res.joint("pin").force[-1]
+
+    q_ours, f_ours = run()
+    for fn in (S.advance, S._reduced_start, I._ic, R.post_batch):
+        monkeypatch.setattr(fn, "options", None)
+        monkeypatch.setattr(fn, "_memo", type(fn._memo)())
+    q_xla, f_xla = run()
+    np.testing.assert_allclose(q_ours, q_xla, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(f_ours, f_xla, rtol=1e-9, atol=1e-9)
+    assert abs(q_ours[0] - 0.5) > 1e-3  # it swung: the comparison is of a moving state
