@@ -336,8 +336,6 @@ def simulate(
             st, h, k, bufs, (ns, nr, nn, nj), stat, ft, wr, seg = advance(
                 dyn, integrator, dopts, st, h, tpad, n_valid, free_running, t_stop, seg
             )
-            if dyn.kind != "absolute":
-                bufs = (*_to_absolute(dyn, bufs[0], bufs[1]), *bufs[2:])
             if traced:
                 rec_t.append(tc)
                 for key, b in zip(("q", "v", "w", "z"), bufs):
@@ -456,9 +454,20 @@ def _reduced_start(dyn, q, v, qdd, lam):
     return x, xd, xdd, dyn.reduce_multipliers(lam), -dyn.mass_action(x, xdd)
 
 
-_to_absolute = cached_jit(jax.vmap(lambda dyn, x, xd: dyn.absolute(x, xd), in_axes=(None, 0, 0)))
-# The integration loop (solvers/driver.py), its trace and lowering kept across processes.
-advance = cached_jit(_advance_jit, static_argnums=(1, 2, 7), xla="loop")
+def _advance_absolute(dyn, integrator, dopts, st, h, out_times, n_valid, free_running=False, t_stop=None, seg=None):
+    """The integration loop (solvers/driver.py ``advance``) with its recorded (q, v) in absolute
+    coordinates: one executable (a separate conversion was one more compile and load per model)."""
+    out = _advance_jit(dyn, integrator, dopts, st, h, out_times, n_valid, free_running, t_stop, seg)
+    if dyn.kind == "absolute":
+        return out
+    bufs = out[3]
+    q, v = jax.vmap(dyn.absolute)(bufs[0], bufs[1])
+    return (*out[:3], (q, v, *bufs[2:]), *out[4:])
+
+
+_advance_absolute.__name__ = "advance"  # JAX's compile logs and the cache files name the loop
+# The integration loop, its trace and lowering kept across processes.
+advance = cached_jit(_advance_absolute, static_argnums=(1, 2, 7), xla="loop")
 
 
 def _failure_message(system, status, t, worst):
