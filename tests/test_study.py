@@ -77,6 +77,12 @@ def test_grid_study_equals_a_loop_of_simulate(system, tmp_path):
         assert row["x_end"] == pytest.approx(float(ref.part("lower").position[-1, 0]), abs=1e-10)
         assert row["steps"] == ref.stats["steps"]
     assert {"wall_s", "worker", "batch", "key"} <= set(tab.columns)
+    # one variant per compiled call (lanes=1): the same rows
+    one = st.run(design="grid", n=2, executor="vmap", workers=1, lanes=1, progress=False)
+    np.testing.assert_allclose(one["x_end"], tab["x_end"], rtol=0, atol=1e-10)
+    assert list(one["steps"]) == list(tab["steps"])
+    with pytest.raises(pl.ModelError, match="lanes"):
+        st.run(design="grid", n=2, executor="vmap", lanes=0, progress=False)
     # the store holds the rows with the definition and the versions in the file metadata
     import pyarrow.parquet as pq
 

@@ -59,9 +59,10 @@ def default_executor(kind: str, backend: str | None = None) -> str:
 class Job:
     """What a worker needs to evaluate a batch (pickled with cloudpickle)."""
 
-    def __init__(self, target, kind, names, outputs, simulate_kw, apply=None):
+    def __init__(self, target, kind, names, outputs, simulate_kw, apply=None, lanes=None):
         self.target, self.kind, self.names = target, kind, list(names)  # kind: "system", "builder" or "function"
         self.outputs, self.simulate_kw, self.apply = dict(outputs), dict(simulate_kw), apply
+        self.lanes = lanes  # variants per compiled vmap call inside a batch (None: the whole batch)
 
 
 def _worker_name() -> str:
@@ -209,7 +210,8 @@ def evaluate_batch(job: Job, rows: list[tuple[str, dict]], *, workers: int = 1, 
         else:
             params = {k: np.stack([np.asarray(m[1][k], float) for m in members]) for k in job.names}
         try:
-            res = sweep(base, params, workers=workers, batch_size=batch_size, apply=job.apply, **job.simulate_kw)
+            lanes = getattr(job, "lanes", None) or batch_size
+            res = sweep(base, params, workers=workers, batch_size=lanes, apply=job.apply, **job.simulate_kw)
             err = None
         except Exception as exc:  # the whole group failed (compilation, bad options): rows say why
             res, err = None, f"{type(exc).__name__}: {exc}"

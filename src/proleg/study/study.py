@@ -169,7 +169,7 @@ class Study:
     # -- running ---------------------------------------------------------------------------
     def run(self, design="lhs", n: int | None = None, seed: int | None = 0, *, executor: str | None = None,
             store=None, batch_size: int | None = None, workers: int | None = None, scheduler=None,
-            progress: bool | None = None, on_batch=None) -> pd.DataFrame:
+            progress: bool | None = None, on_batch=None, lanes: int | None = None) -> pd.DataFrame:
         """Run the design and return its rows (one per variant, in design order).
 
         ``executor``: "vmap", "processes" or "dask" (``scheduler``: an address such as
@@ -179,15 +179,19 @@ class Study:
         function study). ``store``: a folder; what it holds is
         not run again, what finishes is written batch by batch. ``batch_size`` variants per
         batch (default: on the CPU the pending ones split over the workers, at most 256).
-        ``on_batch(rows)`` is called after each batch is stored.
+        ``lanes``: variants per compiled ``vmap`` call inside a batch (default: the whole batch;
+        ``lanes=1`` simulates a batch's variants one after the other, each at its own step
+        sizes, which on CPU cores is the faster way when variants differ much in stiffness:
+        a vmap batch runs until its slowest lane, bench/README.md). It is an execution choice,
+        not part of the study's definition. ``on_batch(rows)`` is called after each batch is stored.
         """
         table = self.design(design, n, seed)
         label = f"design={design if isinstance(design, str) else 'table'} n={n} seed={seed}"
         return self.evaluate(table, executor=executor, store=store, batch_size=batch_size, workers=workers,
-                             scheduler=scheduler, progress=progress, on_batch=on_batch, label=label)
+                             scheduler=scheduler, progress=progress, on_batch=on_batch, label=label, lanes=lanes)
 
     def evaluate(self, table: pd.DataFrame, *, executor=None, store=None, batch_size=None, workers=None,
-                 scheduler=None, progress=None, on_batch=None, label="table") -> pd.DataFrame:
+                 scheduler=None, progress=None, on_batch=None, label="table", lanes=None) -> pd.DataFrame:
         """Evaluate the variants of ``table`` (columns: the space's parameters, optional ``key``)."""
         if "key" not in table.columns:
             table = table.copy()
@@ -196,6 +200,8 @@ class Study:
             executor = ex.default_executor(self.kind)
         if not isinstance(executor, str) or executor not in EXECUTORS:
             raise ModelError(f"Study: unknown executor {executor!r}; valid: {[*EXECUTORS, 'auto']}.")
+        if lanes is not None and (not isinstance(lanes, int) or isinstance(lanes, bool) or lanes < 1):
+            raise ModelError(f"Study: lanes must be a positive integer or None (got {lanes!r}).")
         st = Store(store).open(self.definition()) if store is not None else None
         if st is not None:
             st.add_plan(list(table["key"]), label)
@@ -204,14 +210,14 @@ class Study:
         todo = [(r["key"], {k: r[k] for k in self.space.dims}) for r in table.to_dict("records") if r["key"] not in done_keys]
         new_rows = []
         if todo:
-            new_rows = self._execute(todo, executor, st, batch_size, workers, scheduler, progress, on_batch)
+            new_rows = self._execute(todo, executor, st, batch_size, workers, scheduler, progress, on_batch, lanes)
         allrows = pd.concat([done, pd.DataFrame(new_rows)], ignore_index=True) if len(done) else pd.DataFrame(new_rows)
         allrows = allrows.drop_duplicates("key", keep="first").set_index("key")
         out = allrows.loc[list(table["key"])].reset_index()
         cols = ["key", *self.space.dims, *self.outputs, "status", "reason", "wall_s"]
         return out[cols + [c for c in out.columns if c not in cols]]
 
-    def _execute(self, todo, executor, st, batch_size, workers, scheduler, progress, on_batch):
+    def _execute(self, todo, executor, st, batch_size, workers, scheduler, progress, on_batch, lanes=None):
         from ..analyses.sweep import default_batch_size, default_workers
 
         if workers is None:
@@ -221,7 +227,7 @@ class Study:
         bs = int(batch_size) if batch_size else default_batch_size(len(todo), workers)
         batches = [todo[i : i + bs] for i in range(0, len(todo), bs)]
         names = list(self.space.dims)
-        job = ex.Job(self.target, self.kind, names, self.outputs, self.simulate, self.apply)
+        job = ex.Job(self.target, self.kind, names, self.outputs, self.simulate, self.apply, lanes)
         client = owned = None
         if executor in ("vmap", "local"):
             gen = ex.run_vmap(job, batches, workers=workers)
