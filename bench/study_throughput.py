@@ -47,6 +47,8 @@ def main():
     ap.add_argument("--model", choices=["pendulum", "hyq"], default="pendulum")
     ap.add_argument("--n", type=int, default=64)
     ap.add_argument("--executors", default="sequential,vmap,processes,dask")
+    ap.add_argument("--lanes", type=int, default=None,
+                    help="variants per compiled vmap call inside a batch (Study.run lanes=; default: the whole batch)")
     args = ap.parse_args()
     if args.model == "hyq":
         from proleg.robots.hyq_study import bushing_study
@@ -70,17 +72,19 @@ def main():
                                   **simulate_kwargs(study.simulate))
                 ok += res.ok
         else:
-            tab = study.run(design="lhs", n=args.n, seed=1, executor=ex, store=store, workers=None if ex == "vmap" else 2, progress=False)
+            tab = study.run(design="lhs", n=args.n, seed=1, executor=ex, store=store, workers=None if ex == "vmap" else 2, progress=False,
+                            lanes=args.lanes)
             ok = int((tab["status"] == "success").sum())
         wall = time.perf_counter() - t0
         shutil.rmtree(store, ignore_errors=True)
-        rows.append({"executor": ex, "variants": args.n, "succeeded": ok, "wall [s]": wall, "variants/s": args.n / wall,
+        rows.append({"executor": ex, "lanes": "-" if ex == "sequential" else (args.lanes or "batch"), "variants": args.n, "succeeded": ok, "wall [s]": wall, "variants/s": args.n / wall,
                      "load (1 min) at end": os.getloadavg()[0]})
         print(rows[-1], flush=True)
     df = pd.DataFrame(rows)
     df.attrs["machine"] = f"{platform.node()} {os.cpu_count()} cores"
     print(df.to_string(index=False))
-    out = Path(__file__).parent / "results" / f"study_throughput_{args.model}_{args.n}.csv"
+    suffix = f"_lanes{args.lanes}" if args.lanes else ""
+    out = Path(__file__).parent / "results" / f"study_throughput_{args.model}_{args.n}{suffix}.csv"
     df.to_csv(out, index=False)
     print(f"wrote {out} ({platform.processor() or platform.machine()}, {os.cpu_count()} cores)")
 
