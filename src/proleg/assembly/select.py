@@ -15,6 +15,7 @@ batched gathers are no faster per lane than single ones (bench/README.md, vmap_b
 
 from __future__ import annotations
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -58,7 +59,13 @@ class Select:
         return self.idx.size
 
     def __matmul__(self, x):
-        return x[self.idx]
+        # One gather with constant in-range indices (x[idx] would also trace the wrap-around of
+        # negative indices: three more equations per selection, bench/trace_size.py).
+        if isinstance(x, np.ndarray) or self.idx.size == 0:
+            return x[self.idx]
+        x = jnp.asarray(x)
+        dn = jax.lax.GatherDimensionNumbers(offset_dims=tuple(range(1, x.ndim)), collapsed_slice_dims=(0,), start_index_map=(0,))
+        return jax.lax.gather(x, self.idx[:, None], dn, (1,) + x.shape[1:], mode=jax.lax.GatherScatterMode.PROMISE_IN_BOUNDS)
 
     @property
     def T(self):
