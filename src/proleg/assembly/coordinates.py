@@ -33,6 +33,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..spatial.rotation import A_of_p, quat_mul
+from .select import Select
 from .sparsity import Coloring, greedy_coloring
 from .system import System, constraints, generalized_forces, mass_action, power_terms
 
@@ -116,10 +117,11 @@ class PlanarBasis:
         for r, z in enumerate(nz):
             self.P_idx[r, : len(z)] = z
             self.P_w[r, : len(z)] = self.P[r, z]
+        self._pick = Select(self.P_idx.reshape(-1), self.P.shape[1])
 
     def combine(self, phi):
         """P @ phi."""
-        return jnp.sum(jnp.asarray(self.P_w) * phi[self.P_idx], 1)
+        return jnp.sum(jnp.asarray(self.P_w) * (self._pick @ phi).reshape(self.P_idx.shape), 1)
 
 
 def _in_plane(E, d):

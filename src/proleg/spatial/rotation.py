@@ -17,77 +17,55 @@ def _xp(x):
     return np if isinstance(x, np.ndarray) else jnp
 
 
-# The small fixed linear and bilinear maps of this module as constant tensors: each becomes one
-# broadcast product and one sum (a fused loop on XLA-CPU) instead of a dozen scalar ops built
-# entry by entry; inside the Newton matrix's forward-mode derivatives these functions are traced
-# many times per step, and the traced size is what a cold compile pays for
-# (bench/trace_size.py). Entries are 0 and ±1, ±2: the values are the same sums as before, up
-# to the order of additions.
-_SKEW = np.zeros((3, 3, 3))  # ã_ij = Σ_k _SKEW[i, j, k] a_k
-for _i, _j, _k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
-    _SKEW[_i, _j, _k], _SKEW[_j, _i, _k] = -1.0, 1.0
-# G_ij = Σ_k _G[k, i, j] p_k, L likewise: [−e, ±ẽ + e0 I]
-_G = np.zeros((4, 3, 4))
-_L = np.zeros((4, 3, 4))
-for _i in range(3):
-    _G[1 + _i, _i, 0] = _L[1 + _i, _i, 0] = -1.0
-    _G[0, _i, 1 + _i] = _L[0, _i, 1 + _i] = 1.0
-    _G[1:, _i, 1:] += _SKEW[_i].T
-    _L[1:, _i, 1:] -= _SKEW[_i].T
-# A_ij = Σ_kl p_k p_l _A[k·4 + l, i·3 + j]: (e0² − eᵀe) δ_ij + 2 e_i e_j + 2 e0 ẽ_ij
-_A = np.zeros((4, 4, 3, 3))
-_A[0, 0] = np.eye(3)
-for _i in range(3):
-    _A[1 + _i, 1 + _i] -= np.eye(3)
-    _A[0, 1 + _i] += 2.0 * _SKEW[:, :, _i]
-    for _j in range(3):
-        _A[1 + _i, 1 + _j, _i, _j] += 2.0
-_A = _A.reshape(16, 9)
-# (a ⊗ b)_i = Σ_jk a_j b_k _Q[j·4 + k, i]: (a0 b0 − a·b, a0 b + b0 a + a × b)
-_Q = np.zeros((4, 4, 4))
-_Q[0, 0, 0] = 1.0
-for _i in range(3):
-    _Q[1 + _i, 1 + _i, 0] = -1.0
-    _Q[0, 1 + _i, 1 + _i] = _Q[1 + _i, 0, 1 + _i] = 1.0
-    _Q[1:, 1:, 1 + _i] = -_SKEW[_i]  # (a × b)_i = Σ_jk ε_ijk a_j b_k, ε_ijk = −_SKEW[i, j, k]
-_Q = _Q.reshape(16, 4)
-del _i, _j, _k
-
-
-def _outer16(a, b):
-    """a_j b_k flattened to (..., 16) (both (..., 4), batch axes broadcast)."""
-    o = a[..., :, None] * b[..., None, :]
-    return o.reshape(o.shape[:-2] + (16,))
-
-
+# These functions are traced many times per step (inside the Newton matrix's forward-mode
+# derivatives), and the traced size is what a cold compile pays for (bench/trace_size.py): ã is
+# one concatenation of its signed entries and a reshape, not rows stacked from scalars.
+# Measured alternatives (chain7_absolute / bushing7 of bench/bushing_pendulum.py, interleaved
+# runs, µs/step): contractions with constant 0/±1 tensors (fewest equations) multiply every
+# tangent through the whole tensor: 165 → 195 and 130 → 158; G and L as one concatenation of
+# 12 entries: 165 → 180 and 130 → 155; A(p) as 2eeᵀ + ... + (2e0 e)~: bushing7 130 → 138.
+# The forms below run as fast as the entry-by-entry ones (167 / 127).
 def skew(a):
     """Skew matrix ã with ã b = a × b; works on (..., 3)."""
     xp = _xp(a)
     a = xp.asarray(a)
-    return xp.sum(a[..., None, None, :] * _SKEW, -1)
+    z = xp.zeros_like(a[..., :1])
+    a0, a1, a2 = a[..., 0:1], a[..., 1:2], a[..., 2:3]
+    return xp.concatenate([z, -a2, a1, a2, z, -a0, -a1, a0, z], -1).reshape(a.shape[:-1] + (3, 3))
 
 
 def quat_mul(a, b):
     """Euler-parameter product a ⊗ b (A(a ⊗ b) = A(a) A(b)); rows (..., 4)."""
     xp = np if isinstance(a, np.ndarray) and isinstance(b, np.ndarray) else jnp  # numpy outside jit
-    return xp.sum(_outer16(a, b)[..., :, None] * _Q, -2)
+    a0, av = a[..., :1], a[..., 1:]
+    b0, bv = b[..., :1], b[..., 1:]
+    return xp.concatenate([a0 * b0 - xp.sum(av * bv, -1, keepdims=True), a0 * bv + b0 * av + xp.cross(av, bv)], -1)
 
 
 def A_of_p(p):
     """Rotation matrix as the homogeneous quadratic (e0² − eᵀe) I + 2 e eᵀ + 2 e0 ẽ; (..., 4) → (..., 3, 3)."""
     xp = _xp(p)
-    return xp.sum(_outer16(p, p)[..., :, None] * _A, -2).reshape(p.shape[:-1] + (3, 3))
+    e0 = p[..., 0]
+    e = p[..., 1:]
+    eye = xp.eye(3, dtype=p.dtype)
+    return (
+        (e0**2 - xp.sum(e * e, -1))[..., None, None] * eye
+        + 2.0 * e[..., :, None] * e[..., None, :]
+        + 2.0 * e0[..., None, None] * skew(e)
+    )
 
 
 def G_of_p(p):
     """G(p) = [−e, ẽ + e0 I] (3×4): ω = 2 G ṗ (ground components)."""
     xp = _xp(p)
-    return xp.sum(p[..., :, None, None] * _G, -3)
+    e0, e = p[..., :1], p[..., 1:]
+    return xp.concatenate([-e[..., :, None], skew(e) + e0[..., None] * xp.eye(3)], -1)
 
 
 def L_of_p(p):
     """L(p) = [−e, −ẽ + e0 I] (3×4): ω' = 2 L ṗ (body components)."""
-    return jnp.sum(p[..., :, None, None] * _L, -3)
+    e0, e = p[..., :1], p[..., 1:]
+    return jnp.concatenate([-e[..., :, None], -skew(e) + e0[..., None] * jnp.eye(3)], -1)
 
 
 def p_of_A(R):
