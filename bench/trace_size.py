@@ -184,11 +184,12 @@ def main():
                 rows.append({"model": name, "function": fname, "eqns": 0})
                 continue
             fn, static, a = got[fname]
+            row = {"model": name, "function": fname}
+            if args.compile:  # first: a trace made by make_jaxpr would be reused by jit (cached)
+                row["trace_s"], row["lower_s"], row["xla_s"] = compile_times(fn, static, a, XLA_KIND[fname])
             jx = jax.make_jaxpr(fn, static_argnums=static)(*a)
             n, inner = count(jx.jaxpr)
-            row = {"model": name, "function": fname, "eqns": n}
-            if args.compile:
-                row["trace_s"], row["lower_s"], row["xla_s"] = compile_times(fn, static, a, XLA_KIND[fname])
+            row["eqns"] = n
             rows.append(row)
             log(f"  {fname}: {n} leaf eqns" + (f", trace {row['trace_s']:.2f} lower {row['lower_s']:.2f} xla {row['xla_s']:.2f} s" if args.compile else ""))
             if args.top:
