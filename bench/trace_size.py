@@ -34,7 +34,7 @@ import collections
 import csv
 import time
 
-from common import RESULTS_DIR, add_output_args, build_chain, emit, log
+from common import RESULTS_DIR, add_output_args, build_chain, emit, log, readme_model
 
 import jax  # noqa: E402
 import jax.extend  # noqa: E402
@@ -49,14 +49,7 @@ class _Stop(Exception):
 def pendulum():
     import proleg as pl
 
-    model = pl.Model("double_pendulum", gravity=(0.0, 0.0, -9.81))
-    upper = model.add_part("upper", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(0.5, 0, 0))
-    lower = model.add_part("lower", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(1.5, 0, 0))
-    model.add_joint(pl.Revolute("shoulder", model.ground, upper, at=(0, 0, 0), axis=(0, 1, 0)))
-    model.add_joint(pl.Revolute("elbow", upper, lower, at=(1, 0, 0), axis=(0, 1, 0)))
-    tip, anchor = model.add_marker(lower, "tip", (2, 0, 0)), model.add_marker(model.ground, "anchor", (2, 0, -1))
-    model.add_force(pl.SpringDamper("spring", tip, anchor, stiffness=50.0, damping=0.5, free_length=1.0))
-    system = pl.assemble(model)
+    system = pl.assemble(readme_model())
     return lambda: pl.simulate(system, t_end=2.0, dt_output=1e-3)
 
 
