@@ -292,6 +292,21 @@ def rod_inertia(mass: float, length: float, radius: float = 0.01) -> tuple:
     return (ia, it, it)
 
 
+def readme_model():
+    """The README's ten-line double pendulum (two 1 kg links on revolute joints about ground y,
+    a spring-damper from the tip to a ground anchor): the model of issue 20's cold-start target."""
+    import proleg as pl
+
+    model = pl.Model("double_pendulum", gravity=(0.0, 0.0, -9.81))
+    upper = model.add_part("upper", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(0.5, 0, 0))
+    lower = model.add_part("lower", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(1.5, 0, 0))
+    model.add_joint(pl.Revolute("shoulder", model.ground, upper, at=(0, 0, 0), axis=(0, 1, 0)))
+    model.add_joint(pl.Revolute("elbow", upper, lower, at=(1, 0, 0), axis=(0, 1, 0)))
+    tip, anchor = model.add_marker(lower, "tip", (2, 0, 0)), model.add_marker(model.ground, "anchor", (2, 0, -1))
+    model.add_force(pl.SpringDamper("spring", tip, anchor, stiffness=50.0, damping=0.5, free_length=1.0))
+    return model
+
+
 def build_chain(
     n: int,
     *,

@@ -71,7 +71,7 @@ import jax
 import proleg as pl
 t_import = time.perf_counter() - t0
 sys.path.insert(0, {bench!r})
-from common import CompileEvents, build_chain
+from common import CompileEvents, build_chain, readme_model
 stages = {{}}
 
 def stage(name, fn):
@@ -81,17 +81,7 @@ def stage(name, fn):
         stages[name] = dict(wall=time.perf_counter() - t, **{{k: v for k, v in ev.summary().items() if k != "xla by function [s]"}})
     return out
 
-def readme():
-    model = pl.Model("double_pendulum", gravity=(0.0, 0.0, -9.81))
-    upper = model.add_part("upper", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(0.5, 0, 0))
-    lower = model.add_part("lower", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(1.5, 0, 0))
-    model.add_joint(pl.Revolute("shoulder", model.ground, upper, at=(0, 0, 0), axis=(0, 1, 0)))
-    model.add_joint(pl.Revolute("elbow", upper, lower, at=(1, 0, 0), axis=(0, 1, 0)))
-    tip, anchor = model.add_marker(lower, "tip", (2, 0, 0)), model.add_marker(model.ground, "anchor", (2, 0, -1))
-    model.add_force(pl.SpringDamper("spring", tip, anchor, stiffness=50.0, damping=0.5, free_length=1.0))
-    return model
-
-model = readme() if {model!r} == "readme" else build_chain(7)
+model = readme_model() if {model!r} == "readme" else build_chain(7)
 t_end, dt = (2.0, 1e-3) if {model!r} == "readme" else (1.0, 1e-3)
 system = stage("assemble", lambda: pl.assemble(model))
 result = stage("simulate", lambda: pl.simulate(system, t_end=t_end, dt_output=dt))

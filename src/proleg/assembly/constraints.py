@@ -134,6 +134,15 @@ def _coordinate(sel_i, sel_j, rot, mr, R9):
     return jnp.where(rot, joint_angle(RI, RJ), joint_translation(sel_i @ mr, sel_j @ mr, RJ))
 
 
+def _axes(sel: Select, axes, R9):
+    """The marker axes ``axes`` (one-hot rows, (n, 3)) of the selected markers' frames (rows of
+    ``R9``, (nm, 9)), ground components (n, 3): one gather of the three entries of each column
+    (the frames times a one-hot vector would trace a gather, a product and its reshapes)."""
+    k = np.argmax(axes, 1)
+    flat = 9 * sel.idx[:, None] + 3 * np.arange(3) + k[:, None]
+    return (Select(flat.reshape(-1), R9.size) @ R9.reshape(-1)).reshape(-1, 3)
+
+
 def constraint_values(ct: ConstraintTopology, screw_lead, mr, mR, p, t, coupler=None):
     """Φ(q, t) from marker positions ``mr`` (nm, 3), frames ``mR`` (nm, 3, 3) and body p (nb, 4).
 
@@ -145,14 +154,11 @@ def constraint_values(ct: ConstraintTopology, screw_lead, mr, mR, p, t, coupler=
         d = ct.sph_j @ mr - ct.sph_i @ mr
         parts.append(jnp.sum(d * ct.sph_k, -1))
     if ct.d1_i.shape[0]:
-        RI = (ct.d1_i @ R9).reshape(-1, 3, 3)
-        RJ = (ct.d1_j @ R9).reshape(-1, 3, 3)
-        a = jnp.einsum("nij,nj->ni", RI, ct.d1_a)
-        b = jnp.einsum("nij,nj->ni", RJ, ct.d1_b)
+        a = _axes(ct.d1_i, ct.d1_a, R9)
+        b = _axes(ct.d1_j, ct.d1_b, R9)
         parts.append(jnp.sum(a * b, -1))
     if ct.d2_i.shape[0]:
-        RI = (ct.d2_i @ R9).reshape(-1, 3, 3)
-        a = jnp.einsum("nij,nj->ni", RI, ct.d2_a)
+        a = _axes(ct.d2_i, ct.d2_a, R9)
         d = ct.d2_j @ mr - ct.d2_i @ mr
         parts.append(jnp.sum(a * d, -1))
     if ct.sc_i.shape[0]:

@@ -32,7 +32,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..spatial.rotation import A_of_p
+from ..spatial.rotation import A_of_p, quat_mul
+from .select import Select
 from .sparsity import Coloring, greedy_coloring
 from .system import System, constraints, generalized_forces, mass_action, power_terms
 
@@ -116,15 +117,16 @@ class PlanarBasis:
         for r, z in enumerate(nz):
             self.P_idx[r, : len(z)] = z
             self.P_w[r, : len(z)] = self.P[r, z]
+        self._pick = Select(self.P_idx.reshape(-1), self.P.shape[1])
 
     def combine(self, phi):
         """P @ phi."""
-        return jnp.sum(jnp.asarray(self.P_w) * phi[self.P_idx], 1)
+        return jnp.sum(jnp.asarray(self.P_w) * (self._pick @ phi).reshape(self.P_idx.shape), 1)
 
 
 def _in_plane(E, d):
-    """E d per row, (k, 2) → (k, 3), as broadcast sums (tiny matmuls are library calls on CPU)."""
-    return d[:, 0:1] * jnp.asarray(E[:, 0]) + d[:, 1:2] * jnp.asarray(E[:, 1])
+    """E d per row, (k, 2) → (k, 3), as a broadcast sum (tiny matmuls are library calls on CPU)."""
+    return jnp.sum(d[:, None, :] * jnp.asarray(E), -1)
 
 
 def _on_plane(E, f):
@@ -132,12 +134,9 @@ def _on_plane(E, f):
     return jnp.sum(f[:, :, None] * jnp.asarray(E)[None], 1)
 
 
-def _quat_mul(a, b):
-    """Euler-parameter product a ⊗ b (A(a ⊗ b) = A(a) A(b)), rows (..., 4)."""
-    xp = np if isinstance(a, np.ndarray) and isinstance(b, np.ndarray) else jnp  # numpy outside jit
-    a0, av = a[..., :1], a[..., 1:]
-    b0, bv = b[..., :1], b[..., 1:]
-    return xp.concatenate([a0 * b0 - xp.sum(av * bv, -1, keepdims=True), a0 * bv + b0 * av + xp.cross(av, bv)], -1)
+def _normal_product(normal):
+    """(4, 4) N with (0, n) ⊗ b = b N for rows b (numpy constant)."""
+    return np.asarray(quat_mul(np.concatenate([[0.0], normal])[None], np.eye(4)))
 
 
 @jax.tree_util.register_pytree_node_class
@@ -172,54 +171,60 @@ class Planar:
         """The absolute run's weights in planar terms: translations scaled by the in-plane
         position components, θ by twice the Euler parameters' (δp ≈ δθ/2, |p_i| ≤ 1 → 1/2)."""
         nb = self.system.topo.nbody
-        r, _, _ = self._frames(x)
+        r = self.q_ref.reshape(nb, 7)[:, :3] + _in_plane(self.basis.E, x.reshape(nb, 3)[:, :2])
         rp = jnp.abs(_on_plane(self.basis.E, r))
         w = jnp.concatenate([atol + rtol * rp, jnp.full((nb, 1), 2.0 * atol_p + rtol)], 1)
         return w.reshape(-1)
 
-    def _frames(self, x):
+    def _frames(self, x, rates: bool = True):
+        """Absolute q (7 nb,) at x and, with ``rates``, ∂p/∂θ per part (nb, 4).
+
+        p = p_n(θ) ⊗ p_ref = cos(θ/2) p_ref + sin(θ/2) (0, n) ⊗ p_ref is linear in (cos, sin):
+        the product with the reference is a constant of x (not differentiated, not traced
+        twice), and ∂p/∂θ = (cos(θ/2) (0, n) ⊗ p_ref − sin(θ/2) p_ref)/2."""
         nb = self.system.topo.nbody
         xb = x.reshape(nb, 3)
         qr = self.q_ref.reshape(nb, 7)
-        n = jnp.asarray(self.basis.normal)
+        pr = qr[:, 3:]
+        npr = jnp.sum(pr[:, :, None] * _normal_product(self.basis.normal), 1)
         half = 0.5 * xb[:, 2:3]
-        pn = jnp.concatenate([jnp.cos(half), jnp.sin(half) * n], 1)
-        dpn = 0.5 * jnp.concatenate([-jnp.sin(half), jnp.cos(half) * n], 1)  # d p_n / dθ
+        c, s = jnp.cos(half), jnp.sin(half)
         r = qr[:, :3] + _in_plane(self.basis.E, xb[:, :2])
-        return r, _quat_mul(pn, qr[:, 3:]), _quat_mul(dpn, qr[:, 3:])
+        q = jnp.concatenate([r, c * pr + s * npr], 1).reshape(-1)
+        return (q, 0.5 * (c * npr - s * pr)) if rates else q
 
     def _q(self, x):
-        r, p, _ = self._frames(x)
-        return jnp.concatenate([r, p], 1).reshape(-1)
+        return self._frames(x, rates=False)
 
-    def _T(self, x, xd):
-        """T ẋ (velocities in absolute coordinates)."""
-        nb = self.system.topo.nbody
-        xdb = xd.reshape(nb, 3)
-        _, _, dp = self._frames(x)
+    def _T(self, dp, xd):
+        """T ẋ (velocities in absolute coordinates); ``dp`` = ∂p/∂θ of :meth:`_frames`."""
+        xdb = xd.reshape(dp.shape[0], 3)
         return jnp.concatenate([_in_plane(self.basis.E, xdb[:, :2]), dp * xdb[:, 2:3]], 1).reshape(-1)
 
-    def _Tt(self, x, f):
-        """Tᵀ f (absolute generalized forces → planar)."""
-        nb = self.system.topo.nbody
-        fb = f.reshape(nb, 7)
-        _, _, dp = self._frames(x)
+    def _Tt(self, dp, f):
+        """Tᵀ f (absolute generalized forces → planar); ``dp`` = ∂p/∂θ of :meth:`_frames`."""
+        fb = f.reshape(dp.shape[0], 7)
         return jnp.concatenate([_on_plane(self.basis.E, fb[:, :3]), jnp.sum(dp * fb[:, 3:], 1, keepdims=True)], 1).reshape(-1)
 
+    # Each evaluation computes the frames at x once and shares them between q(x), T ẋ and Tᵀ.
     def constraints(self, x, t):
         return self.basis.combine(constraints(self.system, self._q(x), t))
 
     def mass_action(self, x, a):
-        return self._Tt(x, mass_action(self.system, self._q(x), self._T(x, a)))
+        q, dp = self._frames(x)
+        return self._Tt(dp, mass_action(self.system, q, self._T(dp, a)))
 
     def generalized_forces(self, x, xd, t, z=None):
-        return self._Tt(x, generalized_forces(self.system, self._q(x), self._T(x, xd), t, z))
+        q, dp = self._frames(x)
+        return self._Tt(dp, generalized_forces(self.system, q, self._T(dp, xd), t, z))
 
     def power_terms(self, x, xd, t, z=None):
-        return power_terms(self.system, self._q(x), self._T(x, xd), t, z)
+        q, dp = self._frames(x)
+        return power_terms(self.system, q, self._T(dp, xd), t, z)
 
     def absolute(self, x, xd):
-        return self._q(x), self._T(x, xd)
+        q, dp = self._frames(x)
+        return q, self._T(dp, xd)
 
     def reduce(self, q, v):
         """(x, ẋ) of an absolute state on the plane through q_ref: least squares, exact for
@@ -231,10 +236,10 @@ class Planar:
         d = (qb[:, :3] - qr[:, :3]) @ E
         # Rotation of p relative to p_ref about n: p ⊗ p_ref⁻¹ = (cos θ/2, n sin θ/2).
         pr_inv = qr[:, 3:] * jnp.array([1.0, -1.0, -1.0, -1.0])
-        rel = _quat_mul(qb[:, 3:], pr_inv)
+        rel = quat_mul(qb[:, 3:], pr_inv)
         th = 2.0 * jnp.arctan2(rel[:, 1:] @ n, rel[:, 0])
         x = jnp.concatenate([d, th[:, None]], 1).reshape(-1)
-        _, _, dp = self._frames(x)
+        _, dp = self._frames(x)
         xd = jnp.concatenate([vb[:, :3] @ E, 4.0 * jnp.sum(dp * vb[:, 3:], 1, keepdims=True)], 1).reshape(-1)
         return x, xd
 
@@ -242,7 +247,7 @@ class Planar:
         """ẍ of absolute accelerations q̈ = T ẍ + Ṫ ẋ (Ṫ ẋ = −p θ̇²/4 is orthogonal to ∂p/∂θ)."""
         nb = self.system.topo.nbody
         ab = qdd.reshape(nb, 7)
-        _, _, dp = self._frames(x)
+        _, dp = self._frames(x)
         return jnp.concatenate([_on_plane(self.basis.E, ab[:, :3]), 4.0 * jnp.sum(dp * ab[:, 3:], 1, keepdims=True)], 1).reshape(-1)
 
     def reduce_multipliers(self, lam):
@@ -280,13 +285,13 @@ def _planar_q(q_ref, x, normal, E):
     xb, qr = x.reshape(nb, 3), np.asarray(q_ref).reshape(nb, 7)
     half = 0.5 * xb[:, 2:3]
     pn = np.concatenate([np.cos(half), np.sin(half) * normal], 1)
-    return np.concatenate([qr[:, :3] + xb[:, :2] @ E.T, np.asarray(_quat_mul(pn, qr[:, 3:]))], 1).reshape(-1)
+    return np.concatenate([qr[:, :3] + xb[:, :2] @ E.T, quat_mul(pn, qr[:, 3:])], 1).reshape(-1)
 
 
 def _planar_T(q, normal, E):
     """T = ∂q/∂x at the absolute configuration q (numpy, (7 nb, 3 nb))."""
     nb = len(q) // 7
-    dp = np.asarray(_quat_mul(np.tile(np.concatenate([[0.0], 0.5 * normal]), (nb, 1)), q.reshape(nb, 7)[:, 3:]))
+    dp = quat_mul(np.tile(np.concatenate([[0.0], 0.5 * normal]), (nb, 1)), q.reshape(nb, 7)[:, 3:])
     T = np.zeros((7 * nb, 3 * nb))
     for b in range(nb):
         T[7 * b : 7 * b + 3, 3 * b : 3 * b + 2] = E

@@ -51,9 +51,12 @@ class AbstractGroup:
 
 
 def pair_loads(oh_i, oh_j, F, T, delta):
-    """Per-marker accumulations for action F, T on I and reaction on J (with moment arm)."""
+    """Per-marker accumulations for action F, T on I and reaction on J (with moment arm).
+    ``F`` or ``T`` None: no force (a pure torque element) or no torque (a pure force element)."""
+    if F is None:
+        return jnp.zeros((oh_i.n, 3), T.dtype), oh_i.T @ T - oh_j.T @ T
     Fm = oh_i.T @ F - oh_j.T @ F
-    Tm = oh_i.T @ T + oh_j.T @ (-T - jnp.cross(delta, F))
+    Tm = -(oh_j.T @ jnp.cross(delta, F)) if T is None else oh_i.T @ T + oh_j.T @ (-T - jnp.cross(delta, F))
     return Fm, Tm
 
 
@@ -85,8 +88,7 @@ class SpringDamperGroup(TwoMarkerGroup):
 
     def loads(self, P, mk, t, ctx):
         delta, _, _, _, u, f = self._law(P, mk)
-        F = f[:, None] * u
-        return pair_loads(self.oh_i, self.oh_j, F, jnp.zeros_like(F), delta)
+        return pair_loads(self.oh_i, self.oh_j, f[:, None] * u, None, delta)
 
     def potential(self, P, mk, t, ctx):
         _, _, _, ext, _, _ = self._law(P, mk)
@@ -132,9 +134,7 @@ class RotationalSpringDamperGroup(TwoMarkerGroup):
 
     def loads(self, P, mk, t, ctx):
         z, _, _, _, tq = self._law(P, mk)
-        T = tq[:, None] * z
-        rI, rJ, _, _ = self._ends(mk)
-        return pair_loads(self.oh_i, self.oh_j, jnp.zeros_like(T), T, rI - rJ)
+        return pair_loads(self.oh_i, self.oh_j, None, tq[:, None] * z, None)
 
     def potential(self, P, mk, t, ctx):
         _, _, _, ext, _ = self._law(P, mk)
@@ -284,9 +284,7 @@ class RotationalBacklashGroup(RotationalSpringDamperGroup):
 
     def loads(self, P, mk, t, ctx):
         z, _, _, _, _, tq = self._bl(P, mk)
-        T = tq[:, None] * z
-        rI, rJ, _, _ = self._ends(mk)
-        return pair_loads(self.oh_i, self.oh_j, jnp.zeros_like(T), T, rI - rJ)
+        return pair_loads(self.oh_i, self.oh_j, None, tq[:, None] * z, None)
 
     def potential(self, P, mk, t, ctx):
         _, _, _, delta, _, _ = self._bl(P, mk)

@@ -9,6 +9,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import jax.numpy as jnp
+import numpy as np
 
 from ..errors import ModelError
 from ..spatial.rotation import A_of_p, G_of_p, L_of_p, mm, mv
@@ -32,21 +33,24 @@ class MarkerKin(NamedTuple):
     s: jnp.ndarray  # (nm, 3) marker origin relative to body COM, ground components
 
 
-_GROUND_P = jnp.array([1.0, 0.0, 0.0, 0.0])
+# The ground row as NumPy constants: a constant operand of the concatenation, not a traced
+# broadcast per call (body_kin is traced in every evaluation and its derivatives).
+_GROUND_R = np.zeros((1, 3))
+_GROUND_P = np.array([[1.0, 0.0, 0.0, 0.0]])
 
 
 def body_kin(nbody: int, q, v=None) -> BodyKin:
     qb = q[: 7 * nbody].reshape(nbody, 7)
-    r = jnp.concatenate([qb[:, :3], jnp.zeros((1, 3), q.dtype)], 0)
-    p = jnp.concatenate([qb[:, 3:], _GROUND_P[None, :].astype(q.dtype)], 0)
+    r = jnp.concatenate([qb[:, :3], _GROUND_R.astype(q.dtype)], 0)
+    p = jnp.concatenate([qb[:, 3:], _GROUND_P.astype(q.dtype)], 0)
     A = A_of_p(p)
     if v is None:
         rd = jnp.zeros_like(r)
-        w = jnp.zeros_like(r)
+        w = rd
     else:
         vb = v[: 7 * nbody].reshape(nbody, 7)
-        rd = jnp.concatenate([vb[:, :3], jnp.zeros((1, 3), v.dtype)], 0)
-        pd = jnp.concatenate([vb[:, 3:], jnp.zeros((1, 4), v.dtype)], 0)
+        rd = jnp.concatenate([vb[:, :3], _GROUND_R.astype(v.dtype)], 0)
+        pd = jnp.concatenate([vb[:, 3:], np.zeros((1, 4), v.dtype)], 0)
         w = 2.0 * mv(G_of_p(p), pd)
     return BodyKin(r, p, A, rd, w)
 

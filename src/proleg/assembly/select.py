@@ -15,6 +15,7 @@ batched gathers are no faster per lane than single ones (bench/README.md, vmap_b
 
 from __future__ import annotations
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -58,7 +59,11 @@ class Select:
         return self.idx.size
 
     def __matmul__(self, x):
-        return x[self.idx]
+        # One gather with constant in-range indices (x[idx] would also trace the wrap-around of
+        # negative indices: three more equations per selection, bench/trace_size.py).
+        if isinstance(x, np.ndarray) or self.idx.size == 0:
+            return x[self.idx]
+        return _rows(jnp.asarray(x), self.idx)
 
     @property
     def T(self):
@@ -74,5 +79,15 @@ class _Scatter:
     def __matmul__(self, y):
         if self.s.idx.size == 0:
             return jnp.zeros((self.s.n,) + y.shape[1:], y.dtype)
-        picked = jnp.take(y, self.s.table, axis=0, mode="fill", fill_value=0)
-        return jnp.sum(picked, axis=1)
+        return jnp.sum(_rows(jnp.asarray(y), self.s.table, fill=True), axis=1)
+
+
+def _rows(x, idx, fill: bool = False):
+    """x[idx] for constant indices (any shape) along axis 0 as one gather: in range (or, with
+    ``fill``, 0 where out of range), without the wrap-around of negative indices that
+    ``x[idx]`` / ``jnp.take`` trace (three to five more equations per call, bench/trace_size.py)."""
+    dn = jax.lax.GatherDimensionNumbers(
+        offset_dims=tuple(range(idx.ndim, idx.ndim + x.ndim - 1)), collapsed_slice_dims=(0,), start_index_map=(0,)
+    )
+    mode = jax.lax.GatherScatterMode.FILL_OR_DROP if fill else jax.lax.GatherScatterMode.PROMISE_IN_BOUNDS
+    return jax.lax.gather(x, idx[..., None], dn, (1,) + x.shape[1:], mode=mode, fill_value=0 if fill else None)
