@@ -58,5 +58,8 @@ def test_study_file_errors_name_the_field(tmp_path):
     f.write_text("space: {a: 1}\noutputs: {x: 'r.t[-1]'}\nsimulate: {t_end: 1}\n")
     with pytest.raises(pl.ModelError, match="exactly one of 'model'"):
         load_study_file(f)
+    f.write_text("space: {a: {range: [1, 2]}}\noutputs: {x: 'r.t[-1]'}\nsimulate: {t_end: 1}\nrobot: hyq_leg\nlanes: 0\n")
+    with pytest.raises(pl.ModelError, match="lanes"):
+        load_study_file(f)
     res = CliRunner().invoke(app, ["study", "status", str(tmp_path)])
     assert res.exit_code == 2 and "study store" in res.output

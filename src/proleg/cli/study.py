@@ -28,6 +28,7 @@ def run(
     scheduler: str = typer.Option(None, "--scheduler", help="Dask scheduler address, e.g. tcp://host:8786."),
     store: Path = typer.Option(None, "--store", help="Store folder (default: the file's store)."),
     workers: int = typer.Option(None, "--workers", help="Worker processes / concurrent batches."),
+    lanes: int = typer.Option(None, "--lanes", help="Variants per compiled vmap call (1: one after the other)."),
     report: bool = typer.Option(True, "--report/--no-report", help="Write STORE/report.html afterwards."),
 ):
     """Run (or resume) the study of FILE; rows go to its Parquet store as batches finish."""
@@ -43,6 +44,8 @@ def run(
             kw["store"] = str(store)
         if workers:
             kw["workers"] = workers
+        if lanes:
+            kw["lanes"] = lanes
         table = study.run(progress=True, **kw)
     except (ModelError, DataError) as exc:
         console.print(f"[red]error:[/] {exc}")

@@ -38,15 +38,15 @@ def default_executor(kind: str, backend: str | None = None) -> str:
     - on the CPU: "vmap" for a System, "processes" for a builder (whose builds and traces,
       plain Python, then run on every core).
 
-    Measured (``bench/study_throughput.py --model hyq --n 16``: the HyQ 8-bushing drop over
-    1e6–1e10 N/m, 16 variants, on the quiet 2-core VM at load 1.3 with a warm compilation cache,
-    25 Nov 2026):
-    a loop of ``simulate`` 0.87 variants/s, "vmap" 0.40 variants/s (a batch runs until its
-    slowest lane: the stiff variants take many more steps). "processes" runs the same vmap
-    batches in each worker, so on 2 cores it can at best double 0.40 variants/s and pays each
-    worker's start and compilation (about a minute for this model); its 1,000-variant figure
-    was not measured (the run was stopped under a load of 12–16). So the CPU default of a
-    System study stays "vmap"; choose "processes" for a long study on more cores."""
+    Measured (``bench/study_throughput.py --model hyq --n 1000``: the HyQ 8-bushing drop over
+    1e6–1e10 N/m, 1,000 LHS variants, 2-core VM, warm compilation cache, load 2–7 from other
+    jobs, 25 Nov 2026): a loop of ``simulate`` 1.04 variants/s, "vmap" 0.39, "processes" 0.52,
+    "dask" 0.66 (2 workers each), "processes" with ``lanes=1`` 1.57 (200 variants). A vmap
+    batch runs until its slowest lane, and these variants differ 3× in steps; variants that
+    step alike run 5× faster batched than in a loop (1,000 pendulum variants: 99.7 against
+    19.7 variants/s, bench/vmap_batch.py). A study cannot know beforehand which it is, so the
+    CPU default of a System study stays "vmap"; for stiffness studies over decades on CPU
+    cores pass ``executor="processes", lanes=1`` to :meth:`Study.run`."""
     import jax
 
     if kind == "function":

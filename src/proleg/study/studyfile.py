@@ -57,6 +57,7 @@ class StudyFile(BaseModel):
     store: str | None = None
     batch_size: int | None = Field(None, ge=1)
     workers: int | None = Field(None, ge=1)
+    lanes: int | None = Field(None, ge=1)  # variants per compiled vmap call (Study.run lanes=)
 
     @model_validator(mode="after")
     def _one_model(self):
@@ -138,5 +139,5 @@ def load_study_file(path):
     d = spec.design
     run_kw = dict(design=d.table and str(base / d.table) or d.kind, n=d.n, seed=d.seed, executor=spec.executor,
                   scheduler=spec.scheduler, store=str(base / spec.store) if spec.store else str(base / "results" / (spec.name or path.stem)),
-                  batch_size=spec.batch_size, workers=spec.workers)
+                  batch_size=spec.batch_size, workers=spec.workers, lanes=spec.lanes)
     return study, run_kw
