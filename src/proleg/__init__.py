@@ -20,8 +20,9 @@ def _enable_compilation_cache():
         os.makedirs(path, exist_ok=True)
         if _jax.config.jax_compilation_cache_dir is None:
             _jax.config.update("jax_compilation_cache_dir", path)
-            # 0.1 s: the small functions of a run (planar map back, constraint Jacobian) too.
-            _jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.1)
+            # every executable, also those compiled in under 0.1 s at the "once" XLA options (a warm
+            # start loads them: README example 1.24 -> 1.18 s, bench/compile_cache.py --table)
+            _jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
             _jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
     except (OSError, AttributeError):  # read-only home or an older jax: run without the cache
         pass
