@@ -74,7 +74,8 @@ XLA_OPTIONS = {
 
 def xla_options(kind: str | None) -> dict | None:
     """The ``compiler_options`` for a function of ``kind`` ("loop", "once"; None: XLA's defaults),
-    or None when ``PROLEG_XLA_OPTIONS=default``. The CPU options are inert on other backends."""
+    or None when ``PROLEG_XLA_OPTIONS=default``. They are measured for XLA's CPU compiler and
+    given to CPU compiles only (a GPU compile gets XLA's defaults)."""
     if kind is None or os.environ.get("PROLEG_XLA_OPTIONS", "").strip().lower() == "default":
         return None
     return dict(XLA_OPTIONS[kind])
@@ -431,7 +432,7 @@ class CachedJit:
         a call, arrays or ``jax.ShapeDtypeStruct``."""
         entry = self._entry(args)
         if entry is None:
-            return self.jitted.lower(*args).compile(compiler_options=self.options)
+            return self.jitted.lower(*args).compile(compiler_options=self.options if _platform() == "cpu" else None)
         treedef = jax.tree_util.tree_structure(self._split(args)[1])
 
         def call(*dyn_args):
