@@ -11,7 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..assembly.constraints import joint_angle, joint_translation
-from ..assembly.system import StateView, System, constraints, kinematic_energy_terms, kinematics
+from ..assembly.system import StateView, System, constraint_jacobian, constraints, kinematic_energy_terms, kinematics
 from ..compile_cache import cached_jit, jit
 from ..errors import ModelError, Status
 from ..spatial.rotation import L_of_p, euler_zyx_deg
@@ -491,7 +491,7 @@ def _one_outputs(system, q, v, t, z, kin=None):
 def _post_one(system, q, v, t, z):
     """Everything a table needs at one output: accelerations and multipliers (KKT, note §5), joint
     reactions, element outputs, kinetic and potential energy."""
-    Pq = jax.jacfwd(lambda qq: constraints(system, qq, t))(q)
+    Pq = constraint_jacobian(system, q, t)
     qdd, lam = kkt_accelerations(system, q, v, t, z, Pq=Pq)
     T, V = kinematic_energy_terms(system, q, v, t, z)
     kin = kinematics(system, q, v)

@@ -276,6 +276,17 @@ def constraint_jacobian(system: System, q, t):
     return jax.jacfwd(lambda qq: constraints(system, qq, t))(q)
 
 
+def constraints_and_jacobian(system: System, q, t):
+    """(Φ, Φ_q) at (q, t) from one forward-mode pass (Φ traced once, not again for its value)."""
+
+    def both(qq):
+        phi = constraints(system, qq, t)
+        return phi, phi
+
+    Pq, phi = jax.jacfwd(both, has_aux=True)(q)
+    return phi, Pq
+
+
 _jit_constraint_jacobian = cached_jit(constraint_jacobian)
 
 
@@ -361,7 +372,7 @@ INITIAL_RESIDUAL_WARN = 1e-4  # [m or rad]: above round-off and URDF rounding, b
 
 @cached_jit
 def _jit_constraints_and_jacobian(system: System, q, t):
-    return constraints(system, q, t), constraint_jacobian(system, q, t)
+    return constraints_and_jacobian(system, q, t)
 
 
 def kinematic_energy_terms(system: System, q, v, t=0.0, z=None):

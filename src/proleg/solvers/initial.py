@@ -8,7 +8,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..assembly.coordinates import Absolute
-from ..assembly.system import System, constraints, generalized_forces, power_terms
+from ..assembly.system import System, constraints, constraints_and_jacobian, generalized_forces, power_terms
 from ..compile_cache import cached_jit
 from ..errors import ConvergenceError
 
@@ -69,7 +69,7 @@ def _ic_positions(system: System, q_user, t0, n_iter: int):
     q_user = _normalize_p(q_user, nb)
 
     def gn(q, _):
-        Pq, phi = _constraints_and_jacobian(system, q, t0)
+        phi, Pq = constraints_and_jacobian(system, q, t0)
         nq, nc = q.shape[0], phi.shape[0]
         S = jnp.block([[jnp.eye(nq), Pq.T], [Pq, jnp.zeros((nc, nc))]])
         dx = jnp.linalg.solve(S, jnp.concatenate([q_user - q, -phi]))
@@ -79,22 +79,13 @@ def _ic_positions(system: System, q_user, t0, n_iter: int):
     return q
 
 
-def _constraints_and_jacobian(system: System, q, t):
-    """(Φ_q, Φ) at (q, t) from one forward-mode pass (Φ traced once, not again for its value)."""
-    def both(qq):
-        phi = constraints(system, qq, t)
-        return phi, phi
-
-    return jax.jacfwd(both, has_aux=True)(q)
-
-
 @cached_jit(static_argnums=(4,))
 def _ic(system: System, q_user, v_user, t0, n_iter: int, z0):
     """One compiled initial-conditions analysis: positions (Gauss-Newton), velocities (M-weighted
     projection), a controller sample at t0, accelerations and multipliers (KKT), powers."""
     q = _ic_positions(system, q_user, t0, n_iter)
     M = mass_matrix(system, q)
-    Pq, phi = _constraints_and_jacobian(system, q, t0)
+    phi, Pq = constraints_and_jacobian(system, q, t0)
     Pt = jax.jacfwd(lambda tt: constraints(system, q, tt))(t0)
     nq, nc = q.shape[0], Pq.shape[0]
     S = jnp.block([[M, Pq.T], [Pq, jnp.zeros((nc, nc))]])

@@ -210,7 +210,7 @@ def evaluate_batch(job: Job, rows: list[tuple[str, dict]], *, workers: int = 1, 
         else:
             params = {k: np.stack([np.asarray(m[1][k], float) for m in members]) for k in job.names}
         try:
-            lanes = getattr(job, "lanes", None) or batch_size
+            lanes = job.lanes or batch_size
             res = sweep(base, params, workers=workers, batch_size=lanes, apply=job.apply, **job.simulate_kw)
             err = None
         except Exception as exc:  # the whole group failed (compilation, bad options): rows say why
