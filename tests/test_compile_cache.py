@@ -21,6 +21,17 @@ T_END = 0.2
 RATE = 0.5  # [rad/s], read as a global by law_global
 
 
+@pytest.fixture(autouse=True)
+def on_the_cpu(request):
+    """proleg's disk cache and XLA options serve CPU compiles (a GPU host places single runs
+    there too, analyses/placement.py); these tests also run on a GPU host, on its CPU."""
+    if request.node.get_closest_marker("default_device"):
+        yield
+        return
+    with jax.default_device(jax.devices("cpu")[0]):
+        yield
+
+
 @pytest.fixture
 def cache(tmp_path, monkeypatch):
     monkeypatch.setenv("PROLEG_CACHE_DIR", str(tmp_path))
@@ -159,9 +170,9 @@ def test_xla_options_reach_the_top_level_compile_and_not_nested_ones(tmp_path, m
     assert f.options == cc.XLA_OPTIONS["once"]
     x = jnp.linspace(0.0, 1.0, 4)
     np.testing.assert_allclose(f(x, 2.0), 2.0 * np.sin(np.asarray(x)), rtol=1e-15)
-    f.options = {"xla_cpu_use_fusion_emitters": "not-a-bool"}
+    f.options = {"xla_backend_optimization_level": "not-a-number"}  # a flag XLA 0.10 and 0.11 both know
     f._memo.clear()
-    with pytest.raises(Exception, match="xla_cpu_use_fusion_emitters"):
+    with pytest.raises(Exception, match="xla_backend_optimization_level"):
         f(x, 3.0)  # a top-level compile: the options reach XLA
     np.testing.assert_allclose(jax.jit(lambda y: f(y, 3.0))(x), 3.0 * np.sin(np.asarray(x)), rtol=1e-15)  # nested: plain jit
     np.testing.assert_allclose(jax.grad(lambda y: f(y, 3.0).sum())(x), 3.0 * np.cos(np.asarray(x)), rtol=1e-15)
@@ -194,3 +205,39 @@ def test_xla_options_do_not_change_the_solution(monkeypatch):
     np.testing.assert_allclose(q_ours, q_xla, rtol=0, atol=1e-10)
     np.testing.assert_allclose(f_ours, f_xla, rtol=1e-9, atol=1e-9)
     assert abs(q_ours[0] - 0.5) > 1e-3  # it swung: the comparison is of a moving state
+
+
+@pytest.mark.default_device
+@pytest.mark.skipif(not any(d.platform != "cpu" for d in jax.devices()), reason="needs a GPU (JAX sees only the CPU)")
+def test_single_run_on_a_gpu_host(cache):
+    """Where JAX's default device is a GPU, a single ``simulate`` runs on the host's CPU
+    (analyses/placement.py) with proleg's CPU XLA options (less those that XLA refuses), from an
+    empty and from a warm disk cache; the answer equals the GPU's (``device="default"``) to
+    round-off. Run on an H100 host with JAX 0.11.2 on 25 Nov 2026."""
+    system = spin(law_global)
+    a = angle_at_end(system)
+    loaded = cc.stats["loaded"]
+    cc.clear()
+    b = angle_at_end(system)  # from the disk cache
+    assert cc.stats["loaded"] > loaded
+    res = pl.simulate(system, t_end=T_END, dt_output=0.1, coordinates="absolute", device="default",
+                      run=pl.RunOptions(prepare_outputs=False))
+    np.testing.assert_allclose([a, b], RATE * T_END, rtol=1e-12)
+    np.testing.assert_allclose(float(res.joint("axle").angle[-1]), a, rtol=1e-12)
+
+
+def test_an_option_this_xla_does_not_know_is_dropped_not_fatal(monkeypatch):
+    """XLA retires flags (jaxlib 0.11 has no ``xla_cpu_use_fusion_emitters``, which broke every
+    ``simulate`` on JAX 0.11.2): an unknown option is dropped and remembered, the compile
+    retried; a known option with a bad value still raises."""
+    monkeypatch.setenv("PROLEG_CACHE_DIR", "")
+    monkeypatch.setattr(cc, "refused_options", set())
+    f = cc.jit(scaled, static_argnums=(1,))
+    x = np.linspace(0.0, 1.0, 4)
+    f.options = {"xla_backend_optimization_level": 0, "xla_no_such_flag_for_proleg": True}
+    np.testing.assert_allclose(f(x, 2.0), 2.0 * np.sin(x), rtol=1e-15)
+    assert cc.refused_options == {"xla_no_such_flag_for_proleg"}
+    f.options = {"xla_backend_optimization_level": "not-a-number"}
+    f._memo.clear()
+    with pytest.raises(Exception, match="xla_backend_optimization_level"):
+        f(x, 3.0)

@@ -81,6 +81,28 @@ def xla_options(kind: str | None) -> dict | None:
     return dict(XLA_OPTIONS[kind])
 
 
+#: Options this process's XLA refused as unknown ("No such compile option"): left out of later
+#: compiles. XLA retires flags: jaxlib 0.11 no longer has ``xla_cpu_use_fusion_emitters`` (seen on
+#: the H100 host, JAX 0.11.2, 25 Nov 2026), which is measured and set for jaxlib 0.10.
+refused_options: set[str] = set()
+
+
+def compile_lowered(lowered, options: dict | None):
+    """``lowered.compile(compiler_options=options)`` without the options this XLA does not know:
+    each one it refuses is dropped (and remembered in :data:`refused_options`) and the compile
+    retried, so a JAX release that retires a flag costs its speed-up, not the run. Any other
+    error (a known option with a bad value, say) is raised."""
+    while True:
+        opts = {k: v for k, v in (options or {}).items() if k not in refused_options} or None
+        try:
+            return lowered.compile(compiler_options=opts)
+        except Exception as exc:  # jax.errors.JaxRuntimeError: INVALID_ARGUMENT
+            m = re.search(r"No such compile option: '([^']+)'", str(exc))
+            if m is None or opts is None or m.group(1) not in opts:
+                raise
+            refused_options.add(m.group(1))
+
+
 def jit(fn=None, *, xla: str = "once", static_argnums=()):
     """Like ``jax.jit(fn, static_argnums=...)``, compiled with :func:`xla_options` of ``xla`` when
     called with concrete arguments (the compiled executables are kept in this process, not on
@@ -432,7 +454,7 @@ class CachedJit:
         a call, arrays or ``jax.ShapeDtypeStruct``."""
         entry = self._entry(args)
         if entry is None:
-            return self.jitted.lower(*args).compile(compiler_options=self.options if _platform() == "cpu" else None)
+            return compile_lowered(self.jitted.lower(*args), self.options if _platform() == "cpu" else None)
         treedef = jax.tree_util.tree_structure(self._split(args)[1])
 
         def call(*dyn_args):
@@ -482,13 +504,13 @@ class CachedJit:
                 stats["unkeyed"] += 1
                 stats["why_unkeyed"] = (stats.get("why_unkeyed", []) + [f"{self.name}: {exc}"])[-10:]
         if key is None:  # not on disk: compiled here, with this function's XLA options
-            return jax.jit(self._flat(static, treedef)).lower(*specs).compile(compiler_options=self.options)
+            return compile_lowered(jax.jit(self._flat(static, treedef)).lower(*specs), self.options)
         stem = "".join(c if c.isalnum() or c == "_" else "_" for c in getattr(self.fn, "__name__", "fn"))
         file = os.path.join(path, "export", f"{stem}-{key[:40]}.pkl")
         exported = _load(file)
         if exported is not None:
             try:
-                compiled = jax.jit(exported.call).lower(*specs).compile(compiler_options=self.options)
+                compiled = compile_lowered(jax.jit(exported.call).lower(*specs), self.options)
                 stats["loaded"] += 1
                 return compiled
             except Exception as exc:  # an entry that unpickled into something unusable
@@ -498,7 +520,7 @@ class CachedJit:
             return None
         _save(file, exported)
         stats["exported"] += 1
-        return jax.jit(exported.call).lower(*specs).compile(compiler_options=self.options)
+        return compile_lowered(jax.jit(exported.call).lower(*specs), self.options)
 
     def _flat(self, static, treedef):
         """``fn`` as a function of the flat leaves of its non-static arguments."""

@@ -33,7 +33,7 @@ from .checks import check_simulate, check_sweep_values
 from .result import Result
 from ..solvers.galpha import GeneralizedAlpha
 from .simulate import RunOptions, simulate, simulate_kwargs
-from ..compile_cache import xla_options
+from ..compile_cache import compile_lowered, xla_options
 
 # Default largest batch on the CPU: per lane-step, 1,000 lanes cost 18 µs, 500 13 µs, and two
 # workers ran 1,000 variants 15 % faster in batches of 250 than of 500 (bench/vmap_batch.py).
@@ -233,7 +233,7 @@ def sweep(
     t0 = time.perf_counter()
     first = [jnp.asarray(values[k][:bs]) for k in names]
     cpu = all(d.platform == "cpu" for x in first for d in x.devices())  # XLA options measured for its CPU compiler
-    fn = jax.jit(jax.vmap(one)).lower(first).compile(compiler_options=xla_options("loop") if cpu else None)
+    fn = compile_lowered(jax.jit(jax.vmap(one)).lower(first), xla_options("loop") if cpu else None)
     t_compile = time.perf_counter() - t0
 
     def run(b):
