@@ -87,6 +87,15 @@ def _xla_cpu_defaults():
 
 _xla_cpu_defaults()
 
+
+def _preload_lapack():
+    from ._lapack_table import preload
+
+    preload()
+
+
+_preload_lapack()
+
 __version__ = "0.1.0"
 
 from . import units as units

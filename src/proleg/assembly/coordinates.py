@@ -330,8 +330,9 @@ def _planar_basis(system: System, q_ref):
     E = np.stack([e1, np.cross(n, e1)], 1)
     # Constraint gradients along the plane, Φ_q T, at random planar configurations and times:
     # rows whose gradient vanishes at every sample are constant on the plane (planarity rows).
-    # Uses the constraint Jacobian assemble() has already compiled for this topology.
-    from .system import _jit_constraint_jacobian
+    # Uses the function assemble() has already compiled for this topology (Φ and Φ_q; one
+    # executable fewer to compile or load than a Jacobian of its own).
+    from .system import _jit_constraints_and_jacobian
 
     rng = np.random.default_rng(0)
     size = 1.0 + float(np.max(np.abs(np.asarray(q_ref).reshape(nb, 7)[:, :3])))
@@ -341,7 +342,7 @@ def _planar_basis(system: System, q_ref):
         if k:
             x = np.concatenate([rng.uniform(-size, size, (nb, 2)), rng.uniform(-np.pi, np.pi, (nb, 1))], 1).reshape(-1)
         qk = _planar_q(q_ref, x, n, E)
-        Jk = np.asarray(_jit_constraint_jacobian(system, jnp.asarray(qk), float(rng.uniform(0.0, 1.0)) if k else 0.0))
+        Jk = np.asarray(_jit_constraints_and_jacobian(system, jnp.asarray(qk), float(rng.uniform(0.0, 1.0)) if k else 0.0)[1])
         G.append(Jk @ _planar_T(qk, n, E))
     if not np.all(np.isfinite(np.concatenate(G, 1))):
         return None, "constraints not finite on the plane"

@@ -287,9 +287,6 @@ def constraints_and_jacobian(system: System, q, t):
     return phi, Pq
 
 
-_jit_constraint_jacobian = cached_jit(constraint_jacobian)
-
-
 def initial_coordinates(model: Model):
     q, v = [], []
     for part in model.parts:
