@@ -241,3 +241,46 @@ def test_an_option_this_xla_does_not_know_is_dropped_not_fatal(monkeypatch):
     f._memo.clear()
     with pytest.raises(Exception, match="xla_backend_optimization_level"):
         f(x, 3.0)
+
+
+_TRAIL_CHILD = r"""
+import json, sys, warnings
+import numpy as np
+import proleg as pl
+import proleg.compile_cache as cc
+m = pl.Model("swing", gravity=(0, 0, -9.81))
+arm = m.add_part("arm", 1.0, (0.01, 0.05, 0.05), (0.5, 0, 0))
+m.add_joint(pl.Revolute("pin", m.ground, arm, at=(0, 0, 0), axis=(0, 1, 0)))
+with warnings.catch_warnings(record=True) as w:
+    warnings.simplefilter("always")
+    res = pl.simulate(pl.assemble(m), t_end=0.3, dt_output=0.01, progress=False)
+print(json.dumps(dict(q=res.q[-1].tolist(), stats={k: v for k, v in cc.stats.items() if isinstance(v, int)},
+                      warned=[str(x.message)[:60] for x in w if "unreadable" in str(x.message)])))
+"""
+
+
+def test_trail_prefetches_the_step_loop_in_the_next_process(tmp_path):
+    """The first process records the executables simulate loaded (export/trail-*.pkl); the
+    second loads the step loop in a background thread from the start (stats "prefetched") and
+    gets the same answer bit for bit; a damaged trail file is reported, ignored and rewritten."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    def run():
+        out = subprocess.run([sys.executable, "-c", _TRAIL_CHILD], capture_output=True, text=True, timeout=300,
+                             env={**os.environ, "PROLEG_CACHE_DIR": str(tmp_path)})
+        assert out.returncode == 0, out.stderr[-3000:]
+        return json.loads(out.stdout.strip().splitlines()[-1])
+
+    first = run()
+    trails = list((tmp_path / "export").glob("trail-*.pkl"))
+    assert len(trails) == 1 and first["stats"]["prefetched"] == 0 and first["stats"]["exported"] >= 3
+    second = run()
+    assert second["stats"]["prefetched"] == 1 and second["stats"]["exported"] == 0
+    assert second["q"] == first["q"]
+    trails[0].write_bytes(b"not a pickle")
+    third = run()
+    assert third["warned"] and third["stats"]["prefetched"] == 0 and third["q"] == first["q"]
+    assert run()["stats"]["prefetched"] == 1  # rewritten by the third

@@ -3,6 +3,7 @@ error-controlled implicit integrator over the requested output times."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import sys
@@ -15,6 +16,7 @@ import numpy as np
 from ..assembly.coordinates import coordinate_set
 from ..assembly.system import System
 from ..errors import Interrupted, ModelError, SolverError, Status
+from .. import compile_cache
 from ..compile_cache import cached_jit
 from ..solvers.driver import DriverOptions, knot
 from ..solvers.driver import advance as _advance_jit
@@ -283,122 +285,130 @@ def simulate(
     integrator = ig.method  # what the compiled step depends on; the options are in dopts
     z0 = initial_z(system)
     post = None
-    if run.prepare_outputs and not _any_traced((system.params, q0, v0)):
-        post = _compile_post(system, len(times), z0)
-    q, v, qdd, lam, z0, (pw, g0) = _consistent_state(system, q0, v0, t0, z0)
-    q_ic, v_ic = q, v
-    traced = _any_traced((system.params, q))
-    if not traced:
-        _warn_unstable_servos(system, q, v, t0, z0)
-    dyn = coordinate_set(system, q, coordinates)
-    if dyn.kind != "absolute":
-        q, v, qdd, lam, g0 = _reduced_start(dyn, q, v, qdd, lam)
-    n_newton = dyn.nq + dyn.nc
-    # Constants as NumPy arrays: JAX would compile a small executable for each eager op.
-    f64, i32 = np.float64, np.int32
-    st = StepState(
-        t=np.asarray(t0, f64), q=q, v=v, a=qdd, qdd=qdd, lam=lam,
-        h_prev=np.asarray(1.0, f64), w=np.zeros(2), pw=pw, z=z0, g=g0,
-        Jfac=(np.zeros((n_newton, n_newton)), np.arange(n_newton, dtype=i32)), jac_h=np.asarray(0.0, f64),
-        jac_ok=np.asarray(False), jac_hold=np.asarray(0, i32), jac_pen=np.asarray(0, i32),
-        jerk=np.zeros(np.shape(q)), jerk_h=np.asarray(0.0, f64),
-    )
-    h = np.asarray(dt_init if dt_init is not None else (fixed_step or min(1e-4, dopts.dt_max)), f64)
-    st = st._replace(h_prev=h)
-    seg = (knot(st), knot(st))  # the last accepted step (dense output); none yet
-
-    out_t = times[1:] if times[0] == t0 else times
-    t_stop = np.asarray(out_t[-1], f64)  # steps never go past the last output
-    K = int(chunk or 256 * dopts.out_block)
-    if chunk or free_running:  # the default pads shorter runs: one compilation for all output times
-        K = min(K, max(1, len(out_t)))
-    nchunks = int(math.ceil(len(out_t) / K))
-    host = (lambda x: x) if traced else np.asarray  # a concrete run records NumPy arrays
-    rec = {"q": [host(q_ic)[None]], "v": [host(v_ic)[None]], "w": [np.zeros((1, 2))], "z": [host(z0)[None]]}
-    rec_t = [np.array([t0])]
-    stats = np.zeros(4, int)
-    status, fail_t, worst = Status.SUCCESS, None, None
-    show = progress if progress is not None else (sys.stderr.isatty() and nchunks > 1 and not traced)
-    bar = None
-    if show and not traced:
-        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
-        bar = Progress(TextColumn(f"[bold]{system.topo.name}[/] t ="), TextColumn("{task.fields[t]:.4f} s"), BarColumn(), TimeElapsedColumn(), transient=True)
-        bar.start()
-        task = bar.add_task("sim", total=float(t_end - t0), t=t0)
-    partial_result = None
-    tr_status, tr_ft, tr_stats = np.asarray(0), np.asarray(t0, f64), np.zeros(4, i32)
+    trail = contextlib.ExitStack()  # closed in the finally below
+    if not _any_traced((system.params, q0, v0)):
+        # the executables this run loads, for a later process to start loading early
+        trail.enter_context(compile_cache.trail(system, coordinates, integrator, dopts, len(times), run.chunk,
+                                                free_running, q0 is None, v0 is None))
+        if run.prepare_outputs:
+            post = _compile_post(system, len(times), z0)
     try:
-        for c in range(nchunks):
-            tc = out_t[c * K : (c + 1) * K]
-            n_valid = len(tc)
-            tpad = np.concatenate([tc, np.full(K - n_valid, tc[-1])])
-            st, h, k, bufs, (ns, nr, nn, nj), stat, ft, wr, seg = advance(
-                dyn, integrator, dopts, st, h, tpad, n_valid, free_running, t_stop, seg
-            )
-            if traced:
-                rec_t.append(tc)
-                for key, b in zip(("q", "v", "w", "z"), bufs):
-                    rec[key].append(b[:n_valid])
-                # Kept as (traced) arrays: the first failure and the counters (sweep.py reads them).
-                first = tr_status == 0
-                tr_status, tr_ft = jnp.where(first, stat, tr_status), jnp.where(first, ft, tr_ft)
-                tr_stats = tr_stats + jnp.stack([ns, nr, nn, nj])
-                continue
-            k = int(k)
-            stats += np.array([int(ns), int(nr), int(nn), int(nj)])
-            rec_t.append(tc[:k])
-            for key, b in zip(("q", "v", "w", "z"), bufs):
-                rec[key].append(np.asarray(b)[:k])
-            if bar is not None:
-                bar.update(task, completed=float(st.t) - t0, t=float(st.t))
-            if int(stat) != 0:
-                status, fail_t, worst = Status(int(stat)), float(ft), dyn.absolute_row(int(wr))
-                break
-            if on_chunk is not None:
-                partial_result = _build(system, rec_t, rec, stats, status, "running", ig)
-                on_chunk(partial_result)
-    except KeyboardInterrupt:
-        if traced:
-            raise
-        n = min(len(rec_t), *(len(r) for r in rec.values()))  # drop a chunk recorded in part
-        del rec_t[n:]
-        for r in rec.values():
-            del r[n:]
-        status, fail_t = Status.INTERRUPTED, float(rec_t[-1][-1])
-    finally:
-        if bar is not None:
-            bar.stop()
-    msg = "success"
-    if status == Status.INTERRUPTED:
-        msg = f"{status.describe()} at t = {fail_t:.6g} s; the result holds the outputs up to there."
-    elif status != Status.SUCCESS:
-        msg = _failure_message(system, status, fail_t, worst)
-    result = _build(system, rec_t, rec, stats, status, msg, ig)
-    result.coordinates = dyn.kind
-    if post is not None and len(result.t) == len(times):
-        result._compiled_post = post
-    if traced:  # status, failure time and counters as arrays (a Result's own fields need concrete values)
-        result.traced_status = (tr_status, tr_ft, tr_stats)
-    if not traced:
-        result.initial_changes = _ic_report(system, q_ic, v_ic) if q0 is None and v0 is None else []
-        moved = [c for c in result.initial_changes if max(c["moved [m]"], c["rotated [rad]"]) > 1e-6]
-        if moved:
-            import warnings
+        q, v, qdd, lam, z0, (pw, g0) = _consistent_state(system, q0, v0, t0, z0)
+        q_ic, v_ic = q, v
+        traced = _any_traced((system.params, q))
+        if not traced:
+            _warn_unstable_servos(system, q, v, t0, z0)
+        dyn = coordinate_set(system, q, coordinates)
+        if dyn.kind != "absolute":
+            q, v, qdd, lam, g0 = _reduced_start(dyn, q, v, qdd, lam)
+        n_newton = dyn.nq + dyn.nc
+        # Constants as NumPy arrays: JAX would compile a small executable for each eager op.
+        f64, i32 = np.float64, np.int32
+        st = StepState(
+            t=np.asarray(t0, f64), q=q, v=v, a=qdd, qdd=qdd, lam=lam,
+            h_prev=np.asarray(1.0, f64), w=np.zeros(2), pw=pw, z=z0, g=g0,
+            Jfac=(np.zeros((n_newton, n_newton)), np.arange(n_newton, dtype=i32)), jac_h=np.asarray(0.0, f64),
+            jac_ok=np.asarray(False), jac_hold=np.asarray(0, i32), jac_pen=np.asarray(0, i32),
+            jerk=np.zeros(np.shape(q)), jerk_h=np.asarray(0.0, f64),
+        )
+        h = np.asarray(dt_init if dt_init is not None else (fixed_step or min(1e-4, dopts.dt_max)), f64)
+        st = st._replace(h_prev=h)
+        seg = (knot(st), knot(st))  # the last accepted step (dense output); none yet
 
-            warnings.warn(
-                f"Initial conditions of '{system.topo.name}': to satisfy the joints, proleg moved "
-                + ", ".join(f"'{c['part']}' by {c['moved [m]']:.3g} m / {c['rotated [rad]']:.3g} rad" for c in moved)
-                + " from the modelled pose (result.initial_changes lists all changes).",
-                stacklevel=2,
-            )
-    if isinstance(on_chunk, ChunkStore) and not traced:
-        on_chunk.write(result)  # the last chunk, or the one that failed
-    if status == Status.INTERRUPTED:
-        raise Interrupted(f"simulate of '{system.topo.name}': {msg}", result)
-    if status != Status.SUCCESS and throw:
-        raise SolverError(msg, result)
-    return result
+        out_t = times[1:] if times[0] == t0 else times
+        t_stop = np.asarray(out_t[-1], f64)  # steps never go past the last output
+        K = int(chunk or 256 * dopts.out_block)
+        if chunk or free_running:  # the default pads shorter runs: one compilation for all output times
+            K = min(K, max(1, len(out_t)))
+        nchunks = int(math.ceil(len(out_t) / K))
+        host = (lambda x: x) if traced else np.asarray  # a concrete run records NumPy arrays
+        rec = {"q": [host(q_ic)[None]], "v": [host(v_ic)[None]], "w": [np.zeros((1, 2))], "z": [host(z0)[None]]}
+        rec_t = [np.array([t0])]
+        stats = np.zeros(4, int)
+        status, fail_t, worst = Status.SUCCESS, None, None
+        show = progress if progress is not None else (sys.stderr.isatty() and nchunks > 1 and not traced)
+        bar = None
+        if show and not traced:
+            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+            bar = Progress(TextColumn(f"[bold]{system.topo.name}[/] t ="), TextColumn("{task.fields[t]:.4f} s"), BarColumn(), TimeElapsedColumn(), transient=True)
+            bar.start()
+            task = bar.add_task("sim", total=float(t_end - t0), t=t0)
+        partial_result = None
+        tr_status, tr_ft, tr_stats = np.asarray(0), np.asarray(t0, f64), np.zeros(4, i32)
+        try:
+            for c in range(nchunks):
+                tc = out_t[c * K : (c + 1) * K]
+                n_valid = len(tc)
+                tpad = np.concatenate([tc, np.full(K - n_valid, tc[-1])])
+                st, h, k, bufs, (ns, nr, nn, nj), stat, ft, wr, seg = advance(
+                    dyn, integrator, dopts, st, h, tpad, n_valid, free_running, t_stop, seg
+                )
+                if traced:
+                    rec_t.append(tc)
+                    for key, b in zip(("q", "v", "w", "z"), bufs):
+                        rec[key].append(b[:n_valid])
+                    # Kept as (traced) arrays: the first failure and the counters (sweep.py reads them).
+                    first = tr_status == 0
+                    tr_status, tr_ft = jnp.where(first, stat, tr_status), jnp.where(first, ft, tr_ft)
+                    tr_stats = tr_stats + jnp.stack([ns, nr, nn, nj])
+                    continue
+                k = int(k)
+                stats += np.array([int(ns), int(nr), int(nn), int(nj)])
+                rec_t.append(tc[:k])
+                for key, b in zip(("q", "v", "w", "z"), bufs):
+                    rec[key].append(np.asarray(b)[:k])
+                if bar is not None:
+                    bar.update(task, completed=float(st.t) - t0, t=float(st.t))
+                if int(stat) != 0:
+                    status, fail_t, worst = Status(int(stat)), float(ft), dyn.absolute_row(int(wr))
+                    break
+                if on_chunk is not None:
+                    partial_result = _build(system, rec_t, rec, stats, status, "running", ig)
+                    on_chunk(partial_result)
+        except KeyboardInterrupt:
+            if traced:
+                raise
+            n = min(len(rec_t), *(len(r) for r in rec.values()))  # drop a chunk recorded in part
+            del rec_t[n:]
+            for r in rec.values():
+                del r[n:]
+            status, fail_t = Status.INTERRUPTED, float(rec_t[-1][-1])
+        finally:
+            if bar is not None:
+                bar.stop()
+        msg = "success"
+        if status == Status.INTERRUPTED:
+            msg = f"{status.describe()} at t = {fail_t:.6g} s; the result holds the outputs up to there."
+        elif status != Status.SUCCESS:
+            msg = _failure_message(system, status, fail_t, worst)
+        result = _build(system, rec_t, rec, stats, status, msg, ig)
+        result.coordinates = dyn.kind
+        if post is not None and len(result.t) == len(times):
+            result._compiled_post = post
+        if traced:  # status, failure time and counters as arrays (a Result's own fields need concrete values)
+            result.traced_status = (tr_status, tr_ft, tr_stats)
+        if not traced:
+            result.initial_changes = _ic_report(system, q_ic, v_ic) if q0 is None and v0 is None else []
+            moved = [c for c in result.initial_changes if max(c["moved [m]"], c["rotated [rad]"]) > 1e-6]
+            if moved:
+                import warnings
+
+                warnings.warn(
+                    f"Initial conditions of '{system.topo.name}': to satisfy the joints, proleg moved "
+                    + ", ".join(f"'{c['part']}' by {c['moved [m]']:.3g} m / {c['rotated [rad]']:.3g} rad" for c in moved)
+                    + " from the modelled pose (result.initial_changes lists all changes).",
+                    stacklevel=2,
+                )
+        if isinstance(on_chunk, ChunkStore) and not traced:
+            on_chunk.write(result)  # the last chunk, or the one that failed
+        if status == Status.INTERRUPTED:
+            raise Interrupted(f"simulate of '{system.topo.name}': {msg}", result)
+        if status != Status.SUCCESS and throw:
+            raise SolverError(msg, result)
+        return result
+    finally:
+        trail.close()
 
 
 _POST_POOL = None
