@@ -8,7 +8,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..assembly.system import System, constraints, generalized_forces, unconnected_parts
+from ..assembly.system import System, constraints, constraints_and_jacobian, generalized_forces, unconnected_parts
 from ..errors import ConvergenceError, ModelError
 from .checks import check_equilibrium
 from .placement import placed
@@ -89,7 +89,7 @@ def check_connected(system: System):
 @jit
 def _tangent_pieces(system, q, t):
     """Φ, Φ_q, generalized force Q(q, 0), and the stiffness ∂(Φ_qᵀλ − Q)/∂q with least-squares λ."""
-    Pq = jax.jacfwd(lambda qq: constraints(system, qq, t))(q)
+    phi, Pq = constraints_and_jacobian(system, q, t)
     Q = static_forces(system, q, t)
     lam = jnp.linalg.lstsq(Pq.T, Q)[0]
 
@@ -97,7 +97,7 @@ def _tangent_pieces(system, q, t):
         _, vjp = jax.vjp(lambda x: constraints(system, x, t), qq)
         return vjp(lam)[0] - static_forces(system, qq, t)
 
-    return constraints(system, q, t), Pq, Q, lam, jax.jacfwd(f)(q)
+    return phi, Pq, Q, lam, jax.jacfwd(f)(q)
 
 
 @placed
@@ -175,8 +175,7 @@ def solve_equilibrium(
 def _project_step(system, q, t):
     from ..solvers.initial import _normalize_p
 
-    phi = constraints(system, q, t)
-    Pq = jax.jacfwd(lambda qq: constraints(system, qq, t))(q)
+    phi, Pq = constraints_and_jacobian(system, q, t)
     return _normalize_p(q - jnp.linalg.lstsq(Pq, phi)[0], system.topo.nbody), jnp.max(jnp.abs(phi))
 
 

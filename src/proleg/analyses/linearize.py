@@ -8,7 +8,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..assembly.system import System, constraints, generalized_forces
+from ..assembly.system import System, constraint_jacobian, constraints, generalized_forces
 from ..solvers.initial import mass_matrix
 from .checks import check_linearize
 from .placement import placed
@@ -98,7 +98,7 @@ def _linear_pieces(system, q0, lam, t, z0):
     K = jax.jacfwd(f, 0)(q0, v0)
     C = jax.jacfwd(f, 1)(q0, v0)
     M = mass_matrix(system, q0)
-    Pq = jax.jacfwd(lambda qq: constraints(system, qq, t))(q0)
+    Pq = constraint_jacobian(system, q0, t)
     return K, C, M, Pq
 
 
@@ -139,7 +139,7 @@ def linearize(system: System, state=None, t: float = 0.0) -> LinearModel:
     K = np.asarray(jax.jacfwd(f, 0)(q0, v0))
     C = np.asarray(jax.jacfwd(f, 1)(q0, v0))
     M = np.asarray(mass_matrix(system, q0))
-    Pq = np.asarray(jax.jacfwd(lambda qq: constraints(system, qq, t))(q0))
+    Pq = np.asarray(constraint_jacobian(system, q0, t))
     _, s, Vt = np.linalg.svd(Pq)
     rank = int(np.sum(s > 1e-10 * s[0]))
     N = Vt[rank:].T

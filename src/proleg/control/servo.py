@@ -25,7 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..assembly.extensions import ControllerGroup, joint_coordinate
-from ..assembly.system import System, constraints, generalized_forces, kinematics
+from ..assembly.system import System, constraint_jacobian, constraints, generalized_forces, kinematics
 from ..solvers.initial import mass_matrix
 from ..compile_cache import jit
 
@@ -51,7 +51,7 @@ def _command_gains(system: System, q, v, t, z):
     g, pids = _pids(system)
     idx = np.array([g.out_index[e.actuator_ref] for e in pids])
     M = mass_matrix(system, q)
-    Pq = jax.jacfwd(lambda qq: constraints(system, qq, t))(q)
+    Pq = constraint_jacobian(system, q, t)
     dQ = jax.jacfwd(lambda zz: generalized_forces(system, q, v, t, zz))(z)[:, idx]
     nq, nc = M.shape[0], Pq.shape[0]
     S = jnp.block([[M, Pq.T], [Pq, jnp.zeros((nc, nc))]])
