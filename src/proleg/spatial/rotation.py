@@ -69,51 +69,39 @@ def L_of_p(p):
 
 
 def p_of_A(R):
-    """Euler parameters of rotation matrices (..., 3, 3) → (..., 4), branch-free (Shepperd 1978:
-    of the four candidate formulas, the one with the largest pivot)."""
+    """Euler parameters of rotation matrices (..., 3, 3) → (..., 4), e0 ≥ 0, branch-free
+    (Shepperd 1978: of the four candidate formulas, the one with the largest pivot). NumPy for
+    a NumPy array (no JAX dispatch), else jax.numpy (traceable)."""
+    xp = _xp(R)
     R00, R11, R22 = R[..., 0, 0], R[..., 1, 1], R[..., 2, 2]
-    c = jnp.stack(
+    c = xp.stack(
         [
-            jnp.stack([1 + R00 + R11 + R22, R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]], -1),
-            jnp.stack([R[..., 2, 1] - R[..., 1, 2], 1 + R00 - R11 - R22, R[..., 0, 1] + R[..., 1, 0], R[..., 0, 2] + R[..., 2, 0]], -1),
-            jnp.stack([R[..., 0, 2] - R[..., 2, 0], R[..., 0, 1] + R[..., 1, 0], 1 - R00 + R11 - R22, R[..., 1, 2] + R[..., 2, 1]], -1),
-            jnp.stack([R[..., 1, 0] - R[..., 0, 1], R[..., 0, 2] + R[..., 2, 0], R[..., 1, 2] + R[..., 2, 1], 1 - R00 - R11 + R22], -1),
+            xp.stack([1 + R00 + R11 + R22, R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]], -1),
+            xp.stack([R[..., 2, 1] - R[..., 1, 2], 1 + R00 - R11 - R22, R[..., 0, 1] + R[..., 1, 0], R[..., 0, 2] + R[..., 2, 0]], -1),
+            xp.stack([R[..., 0, 2] - R[..., 2, 0], R[..., 0, 1] + R[..., 1, 0], 1 - R00 + R11 - R22, R[..., 1, 2] + R[..., 2, 1]], -1),
+            xp.stack([R[..., 1, 0] - R[..., 0, 1], R[..., 0, 2] + R[..., 2, 0], R[..., 1, 2] + R[..., 2, 1], 1 - R00 - R11 + R22], -1),
         ],
         -2,
     )  # (..., 4, 4): row k is 4 e_k p
-    k = jnp.argmax(jnp.stack([1 + R00 + R11 + R22, 1 + R00 - R11 - R22, 1 - R00 + R11 - R22, 1 - R00 - R11 + R22], -1), -1)
-    q = jnp.take_along_axis(c, k[..., None, None], -2)[..., 0, :]
-    q = q / jnp.linalg.norm(q, axis=-1, keepdims=True)
-    return q * jnp.where(q[..., :1] < 0, -1.0, 1.0)
+    k = xp.argmax(xp.stack([1 + R00 + R11 + R22, 1 + R00 - R11 - R22, 1 - R00 + R11 - R22, 1 - R00 - R11 + R22], -1), -1)
+    q = xp.take_along_axis(c, k[..., None, None], -2)[..., 0, :]
+    q = q / xp.linalg.norm(q, axis=-1, keepdims=True)
+    return q * xp.where(q[..., :1] < 0, -1.0, 1.0)
 
 
 def p_from_matrix(R) -> np.ndarray:
-    """Unit quaternion (scalar first, e0 ≥ 0) of a rotation matrix (numpy, outside jit).
-
-    SciPy's ``Rotation.from_matrix`` in NumPy (importing scipy.spatial costs ~0.5 s of a first
-    result): a matrix that is not orthogonal to 1e-12 is first replaced by the nearest rotation
-    (U Vᵀ of its SVD), then Shepperd's formula with the largest pivot (diagonal or trace).
-    """
+    """Unit quaternion (scalar first, e0 ≥ 0) of a rotation matrix given by the user (NumPy,
+    outside jit): a left-handed or singular matrix is refused, one that is not orthogonal to
+    1e-12 is first replaced by the nearest rotation (U Vᵀ of its SVD), then :func:`p_of_A`.
+    (SciPy's ``Rotation.from_matrix`` would do the same, but importing scipy.spatial costs
+    ~0.5 s of a first result.)"""
     m = np.asarray(R, dtype=float)
     if not np.linalg.det(m) > 0:
         raise ValueError(f"Non-positive determinant (left-handed or null coordinate frame) in rotation matrix {m}.")
     if not np.allclose(m @ m.T, np.eye(3), rtol=0.0, atol=1e-12):
         U, _, Vt = np.linalg.svd(m)
         m = U @ Vt
-    tr = m[0, 0] + m[1, 1] + m[2, 2]
-    k = int(np.argmax([m[0, 0], m[1, 1], m[2, 2], tr]))
-    x = np.empty(4)  # (x, y, z, w) as SciPy
-    if k == 3:
-        x[:] = m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1], 1 + tr
-    else:
-        i, j, l = k, (k + 1) % 3, (k + 2) % 3
-        x[i] = 1 - tr + 2 * m[i, i]
-        x[j] = m[j, i] + m[i, j]
-        x[l] = m[l, i] + m[i, l]
-        x[3] = m[l, j] - m[j, l]
-    x /= np.linalg.norm(x)
-    p = np.array([x[3], x[0], x[1], x[2]])
-    return p if p[0] >= 0 else -p
+    return p_of_A(m)
 
 
 def euler_zyx_deg(p):
