@@ -346,7 +346,7 @@ class LineActuatorGroup(TwoMarkerGroup, _CommandMixin):
     def loads(self, P, mk, t, ctx):
         delta, ell, u, rate, ext, f_el, f_d, cmd = self._law(P, mk, t, ctx)
         F = (f_el + f_d + cmd)[:, None] * u
-        return pair_loads(self.oh_i, self.oh_j, F, jnp.zeros_like(F), delta)
+        return pair_loads(self.oh_i, self.oh_j, F, None, delta)  # a pure force element
 
     def potential(self, P, mk, t, ctx):
         if not self.hyd:
