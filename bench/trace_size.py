@@ -14,7 +14,7 @@ four functions a first ``simulate`` + ``to_frame`` compiles:
 
 on three models: the README double pendulum (planar coordinates), the 7-link chain
 (common.build_chain(7)) and the HyQ leg drop (hyq_leg(joints="rigid", actuators="drop") through
-hyq_tests.drop_test). The arguments are captured from a real ``simulate`` call, which is stopped
+hyq_tests.drop_test; ``hyq_b8``: the same with eight bushings, make run's largest model). The arguments are captured from a real ``simulate`` call, which is stopped
 before the integration loop compiles (only ``_ic`` and ``_reduced_start`` run).
 
 ``--compile`` also times each function's trace, lowering and XLA compile (cold, proleg's XLA
@@ -69,7 +69,16 @@ def hyq():
     return lambda: drop_test(system=system)
 
 
-MODELS = {"pendulum": pendulum, "chain7": chain7, "hyq": hyq}
+def hyq_b8():
+    from proleg import assemble
+    from proleg.robots.hyq_leg import hyq_leg
+    from proleg.robots.hyq_tests import drop_test
+
+    system = assemble(hyq_leg(joints="bushings8", actuators="drop"))
+    return lambda: drop_test(system=system)
+
+
+MODELS = {"pendulum": pendulum, "chain7": chain7, "hyq": hyq, "hyq_b8": hyq_b8}
 
 
 def capture(run):
