@@ -7,6 +7,7 @@ interpreter: what is imported depends on the whole process."""
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,19 +25,14 @@ def run_fresh(code: str, **env) -> str:
     return out.stdout.strip()
 
 
+BENCH = str(Path(__file__).resolve().parents[1] / "bench")
 README = """
     import sys
-    import numpy as np
     import proleg as pl
     assert "scipy.linalg" not in sys.modules
-    model = pl.Model("double_pendulum", gravity=(0.0, 0.0, -9.81))
-    upper = model.add_part("upper", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(0.5, 0, 0))
-    lower = model.add_part("lower", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(1.5, 0, 0))
-    model.add_joint(pl.Revolute("shoulder", model.ground, upper, at=(0, 0, 0), axis=(0, 1, 0)))
-    model.add_joint(pl.Revolute("elbow", upper, lower, at=(1, 0, 0), axis=(0, 1, 0)))
-    tip, anchor = model.add_marker(lower, "tip", (2, 0, 0)), model.add_marker(model.ground, "anchor", (2, 0, -1))
-    model.add_force(pl.SpringDamper("spring", tip, anchor, stiffness=50.0, damping=0.5, free_length=1.0))
-    res = pl.simulate(pl.assemble(model), t_end=0.5, dt_output=0.01, coordinates="{coords}")
+    sys.path.insert(0, {bench!r})
+    from common import readme_model  # the README's ten-line double pendulum
+    res = pl.simulate(pl.assemble(readme_model()), t_end=0.5, dt_output=0.01, coordinates="{coords}")
     df = res.to_frame()
     print("scipy.linalg" in sys.modules, len(df), repr(float(res.part("lower").position[-1, 0])))
 """
@@ -47,8 +43,8 @@ def test_readme_example_runs_without_importing_scipy_linalg(coords):
     """The README example, planar and in absolute coordinates (whose Newton step uses LAPACK's
     LU through jaxlib), runs to its table without ``scipy.linalg``; and gives the answer of a
     process where jaxlib imported ``scipy.linalg`` itself (PROLEG_PRELOAD_LAPACK=0)."""
-    fast = run_fresh(README.format(coords=coords)).split()
-    slow = run_fresh(README.format(coords=coords), PROLEG_PRELOAD_LAPACK="0").split()
+    fast = run_fresh(README.format(coords=coords, bench=BENCH)).split()
+    slow = run_fresh(README.format(coords=coords, bench=BENCH), PROLEG_PRELOAD_LAPACK="0").split()
     assert fast[:2] == ["False", "51"]
     assert slow[0] == "True"  # the switch works, so the comparison is of the two paths
     assert float(fast[2]) == float(slow[2])
