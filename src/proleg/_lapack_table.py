@@ -62,12 +62,15 @@ def preload() -> bool:
 class _AttachOnImport(importlib.abc.MetaPathFinder):
     """When ``scipy.linalg`` is imported, set its ``cython_blas``/``cython_lapack`` attributes to
     the preloaded modules (the import system sets a submodule's attribute only when it loads the
-    submodule itself), then step out of the import path."""
+    submodule itself). It stays in ``sys.meta_path`` and answers None to everything else (taking
+    itself out while the import system iterates that list would make it skip the next finder)."""
+
+    done = False
 
     def find_spec(self, fullname, path, target=None):
-        if fullname != "scipy.linalg":
+        if fullname != "scipy.linalg" or self.done:
             return None
-        sys.meta_path.remove(self)
+        self.done = True
         spec = importlib.machinery.PathFinder.find_spec(fullname, path)
         if spec is None or spec.loader is None or not hasattr(spec.loader, "exec_module"):
             return spec
