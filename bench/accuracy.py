@@ -162,9 +162,9 @@ def integrator_kw(name, rtol):
 
     tol = dict(rtol=rtol, atol=rtol / 10)
     return {
-        "ga": dict(**tol),
-        "ga_joint": dict(coordinates="joint", **tol),
-        "hht": dict(integrator=pl.HHT(), **tol),
+        "ga": dict(integrator=pl.GeneralizedAlpha(**tol)),
+        "ga_joint": dict(integrator=pl.GeneralizedAlpha(**tol), coordinates="joint"),
+        "hht": dict(integrator=pl.HHT(**tol)),
         "tsit5": dict(integrator=pl.Tsit5(**tol)),
         "kvaerno5": dict(integrator=pl.Kvaerno5(**tol)),
         "radau5": dict(integrator=pl.Radau5(**tol)),

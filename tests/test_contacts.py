@@ -43,7 +43,7 @@ I_BALL = 0.4 * M * R**2
 # defaults the generalized-α solution loses ~3e-4 of the energy over ten bounces; at
 # rtol = 1e-10, atol = 1e-11 the measured drift is ~1e-5. dt_max is given explicitly so the
 # energy run (outputs every 1 ms) and the Hertz run (every 20 µs) share one compiled solver.
-BALL_OPTS = dict(rtol=1e-10, atol=1e-11, dt_max=1e-3)
+BALL_OPTS = dict(integrator=pl.GeneralizedAlpha(rtol=1e-10, atol=1e-11, dt_max=1e-3))
 
 
 # ---------------------------------------------------------------------------------------------

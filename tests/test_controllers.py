@@ -75,7 +75,7 @@ def result():
         )
     )
     system = pl.assemble(model)
-    return pl.simulate(system, t_end=0.7, dt_output=1e-3, rtol=1e-8, atol=1e-9)
+    return pl.simulate(system, t_end=0.7, dt_output=1e-3, integrator=pl.GeneralizedAlpha(rtol=1e-8, atol=1e-9))
 
 
 def test_pid_step_response_overshoot_and_settling(result):

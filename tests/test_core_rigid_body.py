@@ -43,7 +43,7 @@ def result():
             velocity=V0, angular_velocity=A0 @ Q @ wp,
         )
     system = pl.assemble(model)
-    return pl.simulate(system, t_end=T_END, dt_output=0.01, fixed_step=H_FIXED)
+    return pl.simulate(system, t_end=T_END, dt_output=0.01, integrator=pl.GeneralizedAlpha(fixed_step=H_FIXED))
 
 
 @pytest.mark.parametrize("name", list(OMEGA_PRINCIPAL))

@@ -59,7 +59,7 @@ def test_vmap_equals_loop(system):
 
 
 def _x_final_fixed(system, k):
-    return x_history(system, k, fixed_step=H_FIXED)[-1]
+    return x_history(system, k, integrator=pl.GeneralizedAlpha(fixed_step=H_FIXED))[-1]
 
 
 def test_jacfwd_matches_central_differences(system):

@@ -36,7 +36,7 @@ def test_clamped_link_vibrates_at_its_fe_first_frequency(strip):
     m = pl.Model("clamped", gravity=(0, 0, -9.81))
     fb = m.add_flexible_body("link", rb, frame_node=root, position=(0, 0, 0))
     m.add_joint(pl.Fixed("clamp", m.ground, fb, at=(0, 0, 0)))
-    res = pl.simulate(pl.assemble(m), t_end=0.15, dt_output=2.5e-4, rtol=1e-6, atol=1e-8, progress=False)
+    res = pl.simulate(pl.assemble(m), t_end=0.15, dt_output=2.5e-4, integrator=pl.GeneralizedAlpha(rtol=1e-6, atol=1e-8), progress=False)
     tip_z = np.einsum("ij,nj->n", rb.modes[tip, 2:3][:, fb.eta_cols], np.asarray(res.q[:, 7:]))
     zc = tip_z - 0.5 * (tip_z.max() + tip_z.min())
     up = np.where((zc[:-1] < 0) & (zc[1:] >= 0))[0]
@@ -62,7 +62,7 @@ def test_flexible_pendulum_conserves_energy(t_end):
     """Released from horizontal, no damping: T + V (incl. elastic) constant within 1e-5 relative."""
     beam, rb, root, tip = reduced_strip(n_el=4, n_modes=1)
     s = pendulum(rb, root, tip)
-    res = pl.simulate(s, t_end=t_end, dt_output=5e-3, rtol=1e-8, atol=1e-10, progress=False)
+    res = pl.simulate(s, t_end=t_end, dt_output=5e-3, integrator=pl.GeneralizedAlpha(rtol=1e-8, atol=1e-10), progress=False)
     e = res.energy
     scale = beam.mass * 9.81 * L / 2  # potential drop to the bottom
     assert np.max(np.abs(e.total - e.total[0])) / scale < 1e-5
@@ -72,7 +72,7 @@ def test_flexible_pendulum_conserves_energy(t_end):
 def test_stiff_flexible_pendulum_matches_rigid_pendulum():
     beam, rb, root, tip = reduced_strip(n_el=4, n_modes=1)
     s = pendulum(rb, root, tip, scale_K=1e4)
-    res = pl.simulate(s, t_end=0.3, dt_output=1e-2, rtol=1e-7, atol=1e-9, progress=False)
+    res = pl.simulate(s, t_end=0.3, dt_output=1e-2, integrator=pl.GeneralizedAlpha(rtol=1e-7, atol=1e-9), progress=False)
     ang_flex = res.joint("pin").angle
     # The rigid strip with the FE model's mass and inertia about the pin.
     I_pin = float(rb.invariants["I7"][1, 1])
@@ -81,7 +81,8 @@ def test_stiff_flexible_pendulum_matches_rigid_pendulum():
     Iy = I_pin - mass * (L / 2) ** 2
     rod = m.add_part("rod", mass=mass, inertia=(0.5 * Iy, Iy, Iy), position=(L / 2, 0, 0))
     m.add_joint(pl.Revolute("pin", rod, m.ground, at=(0, 0, 0), axis=(0, 1, 0)))
-    ang_rigid = pl.simulate(pl.assemble(m), t_end=0.3, dt_output=1e-2, rtol=1e-9, atol=1e-11, progress=False).joint("pin").angle
+    ang_rigid = pl.simulate(pl.assemble(m), t_end=0.3, dt_output=1e-2, integrator=pl.GeneralizedAlpha(rtol=1e-9, atol=1e-11),
+                            progress=False).joint("pin").angle
     assert np.max(np.abs(ang_flex - ang_rigid)) < 2e-3
 
 

@@ -14,7 +14,7 @@ import proleg as pl
 from proleg.identify import fit
 
 K_TRUE, C_TRUE = 800.0, 6.0
-SIM = dict(fixed_step=2e-3)
+SIM = dict(integrator=pl.GeneralizedAlpha(fixed_step=2e-3))
 
 
 @pytest.fixture(scope="module")

@@ -33,14 +33,14 @@ def test_store_holds_the_returned_rows(tmp_path):
     Result from it, and a rerun into the same store replaces it."""
     system = pl.assemble(pendulum())  # noqa: F821 (from PENDULUM)
     store = tmp_path / "runs" / "pend.parquet"
-    res = pl.simulate(system, 0.2, 0.01, chunk=5, store=store)
+    res = pl.simulate(system, 0.2, 0.01, run=pl.RunOptions(chunk=5), store=store)
     files = sorted(p.name for p in store.iterdir())
     assert files == [f"part-{k:05d}.parquet" for k in range(4)]  # 20 outputs in chunks of 5
     back = read_store(system, store)
     np.testing.assert_array_equal(back.t, res.t)
     for a, b in [(back.q, res.q), (back.v, res.v), (back.w, res.w)]:
         np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
-    pl.simulate(system, 0.1, 0.01, chunk=5, store=store)
+    pl.simulate(system, 0.1, 0.01, run=pl.RunOptions(chunk=5), store=store)
     assert len(pd.read_parquet(store)) == 11
 
 

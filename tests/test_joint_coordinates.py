@@ -113,7 +113,7 @@ def test_crba_rnea_match_projection(systems, name):
 
 
 def _compare(system, t_end, pos_tol, vel_tol):
-    opts = dict(t_end=t_end, dt_output=0.01, rtol=1e-10, atol=1e-11, progress=False)
+    opts = dict(t_end=t_end, dt_output=0.01, integrator=pl.GeneralizedAlpha(rtol=1e-10, atol=1e-11), progress=False)
     ra = pl.simulate(system, coordinates="absolute", **opts)
     rj = pl.simulate(system, coordinates="joint", **opts)
     assert rj.coordinates == "joint" and rj.ok
@@ -165,7 +165,8 @@ def test_vmap_and_jacfwd_through_joint_coordinates():
     system = pl.assemble(chain(2, tilt=False, spring=50.0))
 
     def final_x(k):
-        r = pl.simulate(system.with_params({"spring.stiffness": k}), t_end=0.2, dt_output=0.05, fixed_step=1e-3, progress=False, coordinates="joint")
+        r = pl.simulate(system.with_params({"spring.stiffness": k}), t_end=0.2, dt_output=0.05, integrator=pl.GeneralizedAlpha(fixed_step=1e-3),
+                        progress=False, coordinates="joint")
         return r.part("link2").position[-1, 0]
 
     check_vmap_and_jacfwd(final_x, jnp.linspace(20.0, 90.0, 8))
@@ -176,7 +177,7 @@ def test_hyq_leg_same_drop_as_planar():
     """The HyQ leg (hydraulic cylinders on universal pins: cut joints, floating cylinder parts)
     drops the same in joint coordinates as in its default (planar) coordinates at rtol 1e-8."""
     system = pl.assemble(pl.robots.hyq_leg())
-    opts = dict(t_end=0.3, rtol=1e-8, atol=1e-9, progress=False)
+    opts = dict(t_end=0.3, integrator=pl.GeneralizedAlpha(rtol=1e-8, atol=1e-9), progress=False)
     ra = pl.simulate(system, **opts)
     rj = pl.simulate(system, coordinates="joint", **opts)
     nb = system.topo.nbody

@@ -64,7 +64,7 @@ def test_energy_error_follows_rtol(name):
 def test_agrees_with_generalized_alpha(pendulum):
     """Tsit5 (rtol 1e-11) and generalized-α (rtol 1e-10) give the same swing within 1e-6 m."""
     opts = dict(t_end=1.0, dt_output=0.1)
-    a = pl.simulate(pendulum, rtol=1e-10, atol=1e-11, **opts)
+    a = pl.simulate(pendulum, integrator=pl.GeneralizedAlpha(rtol=1e-10, atol=1e-11), **opts)
     b = pl.simulate(pendulum, integrator=pl.Tsit5(rtol=1e-11, atol=1e-12), **opts)
     assert b.coordinates == "joint" and b.ok
     np.testing.assert_allclose(a.t, b.t)
@@ -78,7 +78,7 @@ def test_closed_loop_in_index1_form():
     with pytest.warns(UserWarning, match="redundant"):
         system = pl.assemble(slider_crank())
     opts = dict(t_end=0.2, dt_output=0.02)
-    a = pl.simulate(system, rtol=1e-10, atol=1e-11, **opts)
+    a = pl.simulate(system, integrator=pl.GeneralizedAlpha(rtol=1e-10, atol=1e-11), **opts)
     b = pl.simulate(system, integrator=pl.Tsit5(rtol=1e-10, atol=1e-11), **opts)
     phi = jax.jit(jax.vmap(lambda q: constraints(system, q, 0.0)))(b.q)
     assert np.abs(np.asarray(phi)).max() < 1e-8
@@ -118,7 +118,7 @@ def test_sampled_pid_same_as_generalized_alpha():
 
     system = sampled_servo()
     opts = dict(t_end=0.3, dt_output=0.01)
-    a = pl.simulate(system, rtol=1e-8, atol=1e-9, **opts)
+    a = pl.simulate(system, integrator=pl.GeneralizedAlpha(rtol=1e-8, atol=1e-9), **opts)
     b = pl.simulate(system, integrator=pl.Tsit5(rtol=1e-8, atol=1e-9), **opts)
     angle = lambda r: np.unwrap(np.arctan2(r.part("rod").orientation[:, 1, 0], r.part("rod").orientation[:, 0, 0]))  # noqa: E731
     assert np.abs(angle(b) - SET).min() < 0.5 * abs(SET)  # it moved towards the setpoint

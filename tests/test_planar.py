@@ -55,7 +55,7 @@ def slider_crank():
 
 
 def run_both(system, **kw):
-    opts = dict(t_end=0.5, dt_output=0.01, rtol=1e-10, atol=1e-11, progress=False) | kw
+    opts = dict(t_end=0.5, dt_output=0.01, integrator=pl.GeneralizedAlpha(rtol=1e-10, atol=1e-11), progress=False) | kw
     return pl.simulate(system, coordinates="absolute", **opts), pl.simulate(system, coordinates="planar", **opts)
 
 
@@ -115,7 +115,7 @@ def test_pendulum_period_closed_form():
     bob = model.add_part("bob", mass=1.0, inertia=(1e-6, 1e-6, 1e-6), position=(L * np.sin(0.01), 0, -L * np.cos(0.01)))
     model.add_joint(pl.Revolute("pivot", bob, model.ground, at=(0, 0, 0), axis=(0, 1, 0)))
     system = pl.assemble(model)
-    r = pl.simulate(system, t_end=3.0, dt_output=1e-3, rtol=1e-10, atol=1e-12, progress=False)
+    r = pl.simulate(system, t_end=3.0, dt_output=1e-3, integrator=pl.GeneralizedAlpha(rtol=1e-10, atol=1e-12), progress=False)
     assert r.coordinates == "planar"
     x = r.part("bob").position[:, 0]
     s = np.flatnonzero((x[:-1] > 0) & (x[1:] <= 0))
@@ -192,7 +192,8 @@ def test_vmap_and_jacfwd_through_planar():
     assert system.topo.planar[1] == "planar"
 
     def final_x(k):
-        r = pl.simulate(system.with_params({"spring.stiffness": k}), t_end=0.2, dt_output=0.05, fixed_step=1e-3, progress=False)
+        r = pl.simulate(system.with_params({"spring.stiffness": k}), t_end=0.2, dt_output=0.05, integrator=pl.GeneralizedAlpha(fixed_step=1e-3),
+                        progress=False)
         return r.part("link2").position[-1, 0]
 
     check_vmap_and_jacfwd(final_x, jnp.array([30.0, 60.0]))

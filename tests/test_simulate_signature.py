@@ -69,3 +69,10 @@ def test_simulate_kwargs_groups_flat_options_without_warning(system):
     assert kw["integrator"].rtol == 1e-5 and kw["run"].free_running
     with pytest.raises(TypeError, match="not_an_option"):
         pl.simulate(system, 0.1, 0.01, **simulate_kwargs({"rtol": 1e-5, "not_an_option": 1}))
+
+
+def test_the_old_keywords_fail_the_suite_outside_pytest_warns(system):
+    """pyproject.toml's filterwarnings makes proleg's own deprecations errors in the test suite, so
+    that no test slips back to the old spellings (the run stops before anything is compiled)."""
+    with pytest.raises(DeprecationWarning, match="simulate\\(rtol=...\\) is deprecated and will be removed in the next release"):
+        pl.simulate(system, 0.1, 0.01, progress=False, rtol=1e-7)

@@ -144,13 +144,20 @@ def stand(t_end: float = 1.5, dt_output: float = 2e-3, progress: bool = False, s
     """Simulate the drop-and-settle (``kw`` to :func:`hyq`, ``simulate_kw`` to
     :func:`proleg.simulate`, default modified Newton); returns (result, table of feet, table of
     joints, {"weight [N]", "com"})."""
+    import dataclasses
+
     import pandas as pd
 
     from ..analyses.simulate import simulate
     from ..assembly.assemble import assemble
+    from ..solvers.galpha import AbstractIntegrator, GeneralizedAlpha
 
     model = hyq(**kw)
-    res = simulate(assemble(model), t_end=t_end, dt_output=dt_output, progress=progress, **{"jacobian_reuse": True, **(simulate_kw or {})})
+    skw = dict(simulate_kw or {})
+    integrator = skw.pop("integrator", None) or GeneralizedAlpha()
+    if isinstance(integrator, AbstractIntegrator):  # modified Newton by default (flat keys in simulate_kw still override)
+        integrator = dataclasses.replace(integrator, jacobian_reuse=True)
+    res = simulate(assemble(model), t_end=t_end, dt_output=dt_output, progress=progress, integrator=integrator, **skw)
     W = -sum(p.mass for p in model.parts) * model.gravity[2]
     masses = np.array([p.mass for p in model.parts])
     com = masses @ np.stack([res.part(p.name).position[-1] for p in model.parts]) / masses.sum()
