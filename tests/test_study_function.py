@@ -134,3 +134,44 @@ def test_the_report_has_every_figure(tmp_path):
                     "Sobol&#x27; indices (Saltelli", "Optimisation history"):
         assert caption in html or caption.replace("&#x27;", "'") in html, caption
     assert html.count("<img") >= 5
+
+
+def test_an_idle_worker_pool_ends_after_its_idle_time(monkeypatch):
+    """The "processes" executor keeps its spawned workers between runs (each imports proleg and
+    compiles once), but a pool left idle for ``POOL_IDLE_S`` ends: two idle HyQ workers held
+    1.5 GB. A second run within the idle time reuses the same pool and workers."""
+    import os
+    import time
+
+    from proleg.study import executors as ex
+
+    ex.shutdown_pools()
+    monkeypatch.setattr(ex, "POOL_IDLE_S", 1.5)
+    st = pl.study.Study.function(lambda x: {"y": x * x}, {"x": [1.0, 2.0, 3.0]}, ["y"])
+    tab = st.run(design="grid", executor="processes", workers=1, progress=False)
+    assert sorted(tab["y"]) == [1.0, 4.0, 9.0]
+    pool = ex._POOLS[1]
+    pids = [p.pid for p in pool._processes.values()]
+    assert pids
+    again = pl.study.Study.function(lambda x: {"y": x + 1.0}, {"x": [4.0, 5.0]}, ["y"])  # new variants: they run
+    assert sorted(again.run(design="grid", executor="processes", workers=1, progress=False)["y"]) == [5.0, 6.0]
+    assert ex._POOLS.get(1) is pool and [p.pid for p in pool._processes.values()] == pids
+    deadline = time.monotonic() + 20.0
+    while 1 in ex._POOLS and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert 1 not in ex._POOLS, "the idle pool was not ended"
+
+    def alive(pid):
+        try:
+            os.kill(pid, 0)
+        except OSError:
+            return False
+        try:  # a zombie (exited, not yet reaped) counts as ended
+            with open(f"/proc/{pid}/stat") as fh:
+                return fh.read().split()[2] != "Z"
+        except OSError:
+            return False
+
+    while any(alive(p) for p in pids) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not any(alive(p) for p in pids)
