@@ -44,12 +44,10 @@ def preload() -> bool:
             files.append(os.path.join(folder, found[0]))
         import scipy  # noqa: F401  (the package's own __init__ is light: ~3 ms)
 
-        loaded = []
         for name, file in zip(names, files):
             mspec = importlib.util.spec_from_file_location(name, file)
             module = importlib.util.module_from_spec(mspec)
             sys.modules[name] = module
-            loaded.append(name)
             mspec.loader.exec_module(module)
     except Exception:  # any surprise: undo, and let jaxlib import scipy.linalg itself
         for name in names:

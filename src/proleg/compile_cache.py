@@ -426,6 +426,16 @@ def _aval(x) -> tuple:
     raise TypeError(f"leaf of type {type(x).__name__}")
 
 
+def _specs(avals) -> list:
+    """Abstract arguments of (shape, dtype, weak type) triples (:func:`_aval`)."""
+    return [jax.ShapeDtypeStruct(s, np.dtype(d), weak_type=w) for s, d, w in avals]
+
+
+def _compile_exported(exported, specs, options):
+    """The executable of a ``jax.export`` function for ``specs``, compiled with ``options``."""
+    return compile_lowered(jax.jit(exported.call).lower(*specs), options)
+
+
 class CachedJit:
     """``jax.jit(fn, static_argnums=...)`` whose trace and lowering is kept on disk for concrete
     arguments (see the module docstring). Call it as ``fn``; :meth:`compile_for` compiles for
@@ -502,7 +512,7 @@ class CachedJit:
         return entry
 
     def _build(self, path, static, treedef, avals):
-        specs = [jax.ShapeDtypeStruct(s, np.dtype(d), weak_type=w) for s, d, w in avals]
+        specs = _specs(avals)
         key = None
         if path is not None:
             try:
@@ -523,7 +533,7 @@ class CachedJit:
         exported = _load(file)
         if exported is not None:
             try:
-                compiled = compile_lowered(jax.jit(exported.call).lower(*specs), self.options)
+                compiled = _compile_exported(exported, specs, self.options)
                 stats["loaded"] += 1
                 return compiled
             except Exception as exc:  # an entry that unpickled into something unusable
@@ -533,7 +543,7 @@ class CachedJit:
             return None
         _save(file, exported)
         stats["exported"] += 1
-        return compile_lowered(jax.jit(exported.call).lower(*specs), self.options)
+        return _compile_exported(exported, specs, self.options)
 
     def _flat(self, static, treedef):
         """``fn`` as a function of the flat leaves of its non-static arguments."""
@@ -632,7 +642,8 @@ class _Trail:
             return None
 
     @classmethod
-    def prefetch(cls, file, avals, options):
+    def prefetch(cls, file, avals, options) -> bool:
+        """Start loading ``file`` in the background thread; False if it is already under way."""
         from concurrent.futures import ThreadPoolExecutor
 
         dev = jax.config.jax_default_device  # the device this analysis runs on (thread-local)
@@ -641,16 +652,16 @@ class _Trail:
             exported = _load(file)
             if exported is None:
                 return None
-            specs = [jax.ShapeDtypeStruct(s, np.dtype(d), weak_type=w) for s, d, w in avals]
             with jax.default_device(dev):
-                return compile_lowered(jax.jit(exported.call).lower(*specs), options)
+                return _compile_exported(exported, _specs(avals), options)
 
         with cls.lock:
             if file in cls.prefetched:
-                return
+                return False
             if cls.pool is None:
                 cls.pool = ThreadPoolExecutor(1, thread_name_prefix="proleg-prefetch")
             cls.prefetched[file] = cls.pool.submit(load)
+            return True
 
 
 @contextlib.contextmanager
@@ -674,8 +685,7 @@ def trail(tree, *key_parts, prefetch: int = 1):
     before, started = _load(file), []
     try:
         for f, avals, options in list(before or [])[::-1][:prefetch]:
-            if os.path.exists(f):
-                _Trail.prefetch(f, avals, options)
+            if os.path.exists(f) and _Trail.prefetch(f, avals, options):
                 started.append(f)
     except Exception as exc:  # not a trail this version wrote: rewritten below
         _warn_corrupt(file, exc)

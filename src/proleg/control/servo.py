@@ -25,7 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..assembly.extensions import ControllerGroup, joint_coordinate
-from ..assembly.system import System, constraint_jacobian, constraints, generalized_forces, kinematics
+from ..assembly.system import System, constraint_jacobian, generalized_forces, kinematics
 from ..solvers.initial import mass_matrix
 from ..compile_cache import jit
 
