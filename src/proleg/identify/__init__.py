@@ -34,6 +34,10 @@ from .fit import fit as fit
 from .fit import plot_fit as plot_fit
 from .fit import signal as signal
 from .hammer import ModalIdentification as ModalIdentification
+from .hammer import StabilisationDiagram as StabilisationDiagram
+from .hammer import frf_estimate as frf_estimate
+from .hammer import modal_from_frf as modal_from_frf
+from .correlation import auto_mac as auto_mac
 from .hammer import comparison_table as modal_comparison_table
 from .hammer import mac as mac
 from .hammer import modal as modal

@@ -1,43 +1,87 @@
-"""Experimental modal analysis from an impact-hammer test (seed 001 Problem 3, Table 2).
+"""Experimental modal analysis from an impact-hammer test (seed 001 Problem 3, Table 2), on the
+field's libraries.
 
-Pipeline of :func:`modal`:
+Pipeline of :func:`modal` (and :func:`modal_from_frf` for FRFs measured elsewhere, e.g. a UFF file):
 
-1. split the records at the hammer hits (force above ``hit_threshold`` x peak), one block per hit,
-   all blocks of equal length from just before the hit;
-2. H1 FRF estimate with averaging over the hits, H1 = sum conj(F) A / sum |F|^2, and the
-   ordinary coherence;
-3. peak picking on the mode indicator sum_j |H_j|^2 / max|H_j|^2, half-power damping as the
-   starting value;
-4. a least-squares fit of the accelerance model
-   H_j(w) = sum_r A_jr (-w^2) / (w_r^2 - w^2 + 2 i zeta_r w_r w) + C_j + E_j w^2
-   in a band around each group of close peaks (close modes are fitted together), by variable
-   projection: w_r and zeta_r non-linear, residues A_jr and residual terms C_j, E_j linear; the
-   fit is over all channels' FRFs together, its poles bounded to the group's band, and the model
-   order grows while the joint residual shows a mode the picking missed (:func:`_fit_band`: a pole
-   is added at the residual's peak and kept only if it halves the residual);
-5. mode shapes: the residues A_jr (one row per channel), rotated to real and normalised.
+1. **Hits** (own code: pyFRF takes blocks, it does not find them): the records are split at the
+   hammer hits (force above ``hit_threshold`` x peak), one block per hit, all of equal length from
+   ``pre_trigger`` before the hit.
+2. **FRFs by pyFRF** (:class:`pyFRF.FRF`): H1 (default), H2 or Hv, averaged over the hits, with
+   the coherence. Windows: a force window (the force is kept from the block start to
+   ``force_window`` s after the hit, zero after: the hammer's signal is there, the rest of the
+   block is only noise), and an exponential window on the responses that falls to
+   ``exp_window_end`` at the block end (leakage of slowly decaying modes, noise at the block
+   end). The exponential window adds the decay rate sigma_w = -ln(exp_window_end) / T_block to
+   every pole; it is subtracted from the identified poles (own code: pyEMA does not know the
+   window).
+3. **Poles by pyEMA's LSCF** (polyMAX; :meth:`sdypy.EMA.Model.get_poles`), for model orders
+   2, 4, ... 2 ``max_order``, on the accelerances inside ``f_range``.
+4. **Stabilisation diagram and automatic picking** (own code: pyEMA's stabilisation chart is
+   interactive or needs the frequencies given; it has no MAC criterion). A pole of order n is
+   stable when a pole of order n-2 lies within ``stability[0]`` in frequency, ``stability[1]`` in
+   damping and has a MAC above ``stability[2]`` with it; the MAC uses the residues that pyEMA's
+   LSFD gives at each order. Fully stable poles are clustered in frequency (single linkage, a
+   cluster holding two poles of one order is split in two: close modes); a cluster is a mode when
+   its poles are stable over at least ``min_stable`` of the orders. ``f_guess`` (a pre-test FE
+   analysis) is the tie-breaker: clusters within +-``band`` of a guess need half the stability,
+   and with ``n_modes`` the modes nearest a guess rank first among equally stable ones.
+5. **Mode shapes by pyEMA's LSFD** (:func:`sdypy.EMA.EMA.LSFD`) with the picked poles, lower and
+   upper residuals; the complex residues are rotated to real and max-abs normalised.
+
+Everything is a fixed number of linear solves (no iteration to convergence): a pathological
+record ends in bounded time, a noise-only record with no stable pole gives no mode and says so
+in ``message``.
 
 Synthetic data: :func:`synthetic_hammer_test` (modal superposition with known damping, exact
 zero-order-hold discretisation per mode, plus noise). MAC and the Table 2-style comparison:
-:func:`mac`, :func:`comparison_table`.
+:mod:`proleg.identify.correlation`.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+import warnings
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
 
 from ..errors import DataError
+from .correlation import auto_mac as auto_mac
+from .correlation import comparison_table as comparison_table
+from .correlation import mac as mac
+
+ESTIMATORS = ("H1", "H2", "Hv")
+
+
+@dataclass
+class StabilisationDiagram:
+    """Poles of every model order: ``order`` (n,), ``frequency`` [Hz] (n,), ``damping`` [-] (n,),
+    ``status`` (n,) 0 new, 1 stable in frequency, 2 and in damping, 3 and in MAC (fully stable);
+    ``cluster`` (n,) the picked mode a pole belongs to (-1 none); ``freq`` [Hz] and ``frf_sum``
+    (sum of |H_j| over the channels) for the background curve."""
+
+    order: np.ndarray
+    frequency: np.ndarray
+    damping: np.ndarray
+    status: np.ndarray
+    cluster: np.ndarray
+    freq: np.ndarray
+    frf_sum: np.ndarray
+    criteria: tuple = (0.01, 0.05, 0.98)
+
+    def table(self) -> pd.DataFrame:
+        return pd.DataFrame({"order": self.order, "frequency [Hz]": self.frequency, "damping [-]": self.damping,
+                             "status": self.status, "mode": self.cluster + 1})
 
 
 @dataclass
 class ModalIdentification:
     """Result of :func:`modal`: frequencies [Hz], damping ratios [-], mode shapes (n_channels,
-    n_modes) (real, max-abs normalised), the H1 FRF ``frf`` (n_freq, n_channels) [(m/s^2)/N] at
-    ``freq`` [Hz], ``coherence`` (n_freq, n_channels), ``n_averages`` and the half-power estimates."""
+    n_modes) (real, max-abs normalised), the FRF ``frf`` (n_freq, n_channels) [(m/s^2)/N] at
+    ``freq`` [Hz], ``coherence`` (n_freq, n_channels), ``n_averages`` and the half-power
+    estimates; ``complex_shapes`` the LSFD residues (n_channels, n_modes), ``stabilisation`` the
+    diagram the modes were picked from, ``message`` what the picking found (why no mode, say)."""
 
     frequencies: np.ndarray
     damping: np.ndarray
@@ -47,10 +91,59 @@ class ModalIdentification:
     coherence: np.ndarray
     n_averages: int
     half_power_damping: np.ndarray
+    complex_shapes: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), complex))
+    stabilisation: StabilisationDiagram | None = None
+    message: str = ""
+    estimator: str = "H1"
 
     def table(self) -> pd.DataFrame:
         return pd.DataFrame({"mode": np.arange(1, self.frequencies.size + 1), "frequency [Hz]": self.frequencies,
                              "damping [-]": self.damping, "half-power damping [-]": self.half_power_damping})
+
+    def auto_mac(self) -> np.ndarray:
+        """Auto-MAC of the identified (complex) shapes."""
+        return auto_mac(self.complex_shapes)
+
+    def plot_stabilisation(self, ax=None, f_range=None):
+        """Stabilisation diagram: the poles of each model order (o new, + stable in frequency,
+        x and in damping, filled: fully stable, coloured when picked) over the FRF sum."""
+        import matplotlib.pyplot as plt
+
+        s = self.stabilisation
+        if s is None:
+            raise DataError("plot_stabilisation: this result has no stabilisation diagram (made without LSCF).")
+        fig = None
+        if ax is None:
+            fig, ax = plt.subplots(figsize=(9, 4.5))
+        lo, hi = f_range if f_range is not None else (s.freq[0], s.freq[-1])
+        m = (s.freq >= lo) & (s.freq <= hi)
+        ax2 = ax.twinx()
+        ax2.semilogy(s.freq[m], s.frf_sum[m], color="0.6", lw=0.8)
+        ax2.set_ylabel("sum |H| [(m/s²)/N]")
+        marks = {0: ("o", "none", "0.7", "new"), 1: ("+", None, "C1", "stable f"), 2: ("x", None, "C2", "stable f, ζ"),
+                 3: ("o", None, "C0", "stable f, ζ, MAC")}
+        for k, (mk, fc, c, lab) in marks.items():
+            sel = (s.status == k) & (s.frequency >= lo) & (s.frequency <= hi)
+            if fc == "none":
+                ax.scatter(s.frequency[sel], s.order[sel], s=8, marker=mk, facecolors="none", edgecolors=c, lw=0.5,
+                           label=lab)
+            else:
+                ax.scatter(s.frequency[sel], s.order[sel], s=10, marker=mk, color=c, lw=0.7, label=lab)
+        picked = s.cluster >= 0
+        ax.scatter(s.frequency[picked], s.order[picked], s=14, color="C3", label="picked mode")
+        for f in self.frequencies:
+            ax.axvline(f, color="C3", lw=0.5, ls="--")
+        ax.set_xlim(lo, hi)
+        ax.set_xlabel("frequency [Hz]")
+        ax.set_ylabel("model order")
+        ax.set_zorder(ax2.get_zorder() + 1)
+        ax.patch.set_visible(False)
+        ax.legend(fontsize=7, loc="upper left", framealpha=0.8)
+        ax.set_title(f"stabilisation diagram (LSCF): {self.frequencies.size} modes; criteria df < "
+                     f"{100 * s.criteria[0]:g} %, dζ < {100 * s.criteria[1]:g} %, MAC > {s.criteria[2]:g}", fontsize=9)
+        if fig is not None:
+            fig.tight_layout()
+        return fig if fig is not None else ax.figure
 
 
 def _check(time, force, acc, source="arrays"):
@@ -63,7 +156,7 @@ def _check(time, force, acc, source="arrays"):
     if F.size != t.size:
         raise DataError(f"{source}: column 'force' has {F.size} samples but 'time' has {t.size}; "
                         "the channels must have the same length.")
-    if A.shape[0] != t.size:
+    if A.ndim != 2 or A.shape[0] != t.size:
         raise DataError(f"{source}: the acceleration channels have {A.shape[0]} samples but 'time' has {t.size}; "
                         "the channels must have the same length.")
     for name, v in (("time", t), ("force", F), ("accelerations", A)):
@@ -74,14 +167,17 @@ def _check(time, force, acc, source="arrays"):
         i = int(np.argmax(np.abs(dt - np.median(dt))))
         raise DataError(f"{source}: column 'time' is not regularly sampled (step {dt[i]:.6g} s at row {i + 2} vs "
                         f"median {np.median(dt):.6g} s); resample to a constant rate before the FRF estimate.")
+    if not np.any(F != 0):
+        raise DataError(f"{source}: column 'force' is zero everywhere; a hammer record needs at least one hit.")
     return t, F, A, float(np.median(dt))
 
 
-def h1_estimate(time, force, accelerations, *, hit_threshold: float = 0.1, pre_trigger: float = 0.01,
-                source: str = "arrays"):
-    """H1 FRF [(m/s^2)/N] and coherence averaged over the hammer hits.
+def split_hits(time, force, accelerations, *, hit_threshold: float = 0.1, pre_trigger: float = 0.01,
+               source: str = "arrays"):
+    """Blocks of equal length, one per hammer hit, from ``pre_trigger`` [s] before each hit.
 
-    Returns freq (nf,) [Hz], H (nf, n_ch), coherence (nf, n_ch), number of hits."""
+    Returns exc (n_hits, n), resp (n_hits, n_ch, n), dt [s] and the index (in a block) where the
+    longest hit's force falls back below the threshold."""
     t, F, A, dt = _check(time, force, accelerations, source)
     above = np.abs(F) > hit_threshold * np.abs(F).max()
     starts = np.flatnonzero(above & ~np.r_[False, above[:-1]])
@@ -92,17 +188,102 @@ def h1_estimate(time, force, accelerations, *, hit_threshold: float = 0.1, pre_t
     ends = begins[1:] + [t.size]
     n = min(e - b for b, e in zip(begins, ends, strict=True))
     if n < 16:
-        raise DataError(f"{source}: the hammer hits are too close together for an FRF block.")
-    Sff, Sfa, Saa = 0.0, 0.0, 0.0
-    for b in begins:
-        Fk = np.fft.rfft(F[b:b + n])
-        Ak = np.fft.rfft(A[b:b + n], axis=0)
-        Sff = Sff + np.abs(Fk) ** 2
-        Sfa = Sfa + np.conj(Fk)[:, None] * Ak
-        Saa = Saa + np.abs(Ak) ** 2
-    H = Sfa / Sff[:, None]
-    coh = np.abs(Sfa) ** 2 / (Sff[:, None] * Saa + 1e-300)
-    return np.fft.rfftfreq(n, dt), H, coh, len(begins)
+        raise DataError(f"{source}: the hammer hits are too close together for an FRF block ({n} samples between "
+                        "two hits); hit once per block, after the response has died out.")
+    exc = np.stack([F[b:b + n] for b in begins])
+    resp = np.stack([A[b:b + n].T for b in begins])
+    pulse_end = 0
+    for e in exc:
+        ab = np.abs(e) > hit_threshold * np.abs(F).max()
+        idx = np.flatnonzero(ab)
+        if idx.size:  # end of the first contiguous run above the threshold
+            run_end = idx[0] + int(np.argmax(np.diff(np.r_[idx, idx[-1] + 2]) > 1))
+            pulse_end = max(pulse_end, int(run_end) + 1)
+    return exc, resp, dt, pulse_end
+
+
+def _need(module, package):
+    """Import an optional EMA library, or say how to install it."""
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ImportError as e:
+        raise ImportError(f"proleg.identify's hammer-test analysis needs {package} ({e}); install the EMA extra: "
+                          "pip install 'proleg[ema]'.") from e
+
+
+@dataclass
+class FRFEstimate:
+    """FRFs from :func:`frf_estimate`: ``freq`` (nf,) [Hz], ``frf`` (nf, n_ch) accelerance
+    [(m/s^2)/N], ``coherence`` (nf, n_ch), ``n_averages``, ``decay_rate`` [1/s] added by the
+    exponential window (subtract it from the poles), ``estimator``."""
+
+    freq: np.ndarray
+    frf: np.ndarray
+    coherence: np.ndarray
+    n_averages: int
+    decay_rate: float
+    estimator: str
+
+
+def frf_estimate(time, force, accelerations, *, estimator: str = "H1", force_window: float | None = None,
+                 exp_window_end: float = 0.1, hit_threshold: float = 0.1, pre_trigger: float = 0.01,
+                 source: str = "arrays") -> FRFEstimate:
+    """Accelerances and coherence averaged over the hammer hits, by pyFRF.
+
+    Parameters
+    ----------
+    estimator : "H1" (noise on the response), "H2" (noise on the force) or "Hv"
+    force_window : [s] after the end of the hit where the force window closes (default: 5 times
+        the hit's duration, at least 5 samples); None uses the default, 0 switches it off
+    exp_window_end : [-] value of the exponential response window at the block end (1: none).
+        Choosing values: 0.1 adds -ln(0.1)/T_block to every pole's decay rate (0.07 1/s for a 32 s
+        block, 0.2 % damping at 2 Hz), removed again from the poles; lower values suppress more
+        noise and leakage but blur close modes.
+    """
+    pyFRF = _need("pyFRF", "pyfrf")
+    if estimator not in ESTIMATORS:
+        raise DataError(f"{source}: FRF estimator {estimator!r} is not one of {ESTIMATORS}; H1 suits response noise "
+                        "(the usual hammer test), H2 force noise.")
+    if not (0 < exp_window_end <= 1):
+        raise DataError(f"{source}: exp_window_end = {exp_window_end!r} must be in (0, 1]; 1 means no window.")
+    exc, resp, dt, pulse_end = split_hits(time, force, accelerations, hit_threshold=hit_threshold,
+                                          pre_trigger=pre_trigger, source=source)
+    nh, n = exc.shape
+    pulse_start = int(round(pre_trigger / dt))
+    if force_window is None:
+        close = pulse_end + max(5 * (pulse_end - pulse_start), 5)
+    elif force_window <= 0:
+        close = n
+    else:
+        close = pulse_end + int(round(force_window / dt))
+    close = min(close, n)
+    fs = 1.0 / dt
+    wins = (f"force:{close / n + 0.5 / n:.12g}" if close < n else "none",
+            f"exponential:{exp_window_end:.12g}" if exp_window_end < 1 else "none")
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore")
+        fr = pyFRF.FRF(max(int(round(fs)), 1), exc[:, None, :], resp, exc_type="f", resp_type="a", window=wins,
+                       frf_estimator=estimator)
+        H = fr.get_FRF(frf_form="accelerance")[:, 0, :].T
+        coh = np.real(fr.get_coherence()).T
+    H = np.nan_to_num(H)
+    H[0] = 0.0  # DC: undefined for accelerance data
+    coh = np.clip(np.nan_to_num(coh), 0.0, 1.0)
+    freq = np.fft.rfftfreq(n, dt)
+    decay = -math.log(exp_window_end) / ((n - 1) * dt) if exp_window_end < 1 else 0.0
+    return FRFEstimate(freq, H, coh, nh, decay, estimator)
+
+
+def h1_estimate(time, force, accelerations, *, hit_threshold: float = 0.1, pre_trigger: float = 0.01,
+                source: str = "arrays"):
+    """H1 FRF [(m/s^2)/N] and coherence averaged over the hammer hits, without windows (pyFRF).
+
+    Returns freq (nf,) [Hz], H (nf, n_ch), coherence (nf, n_ch), number of hits."""
+    r = frf_estimate(time, force, accelerations, force_window=0, exp_window_end=1.0, hit_threshold=hit_threshold,
+                     pre_trigger=pre_trigger, source=source)
+    return r.freq, r.frf, r.coherence, r.n_averages
 
 
 def _half_power(f, ind, k):
@@ -113,178 +294,295 @@ def _half_power(f, ind, k):
     j = k
     while j < ind.size - 1 and ind[j] > half:
         j += 1
-    if i == 0 or j == ind.size - 1:
-        return 0.02
+    if i == 0 or j == ind.size - 1 or ind[i + 1] == ind[i] or ind[j] == ind[j - 1]:
+        return float("nan")
     fl = f[i] + (half - ind[i]) * (f[i + 1] - f[i]) / (ind[i + 1] - ind[i])
     fr = f[j - 1] + (half - ind[j - 1]) * (f[j] - f[j - 1]) / (ind[j] - ind[j - 1])
-    return max((fr - fl) / (2 * f[k]), 1e-4)
+    return max((fr - fl) / (2 * f[k]), 1e-5)
 
 
-def _fit_group(f, H, f0, z0, f_bounds=None):
-    from scipy.optimize import least_squares
+def _f_zeta(p):
+    w = np.abs(p)
+    return w / (2 * np.pi), -p.real / np.where(w > 0, w, 1.0)
 
+
+def _pole(f, z):
     w = 2 * np.pi * f
-    scale = np.abs(H).max(axis=0)
-    Hn = H / scale
-
-    def basis(p):
-        wr, zr = np.exp(p[0::2]), np.exp(p[1::2])
-        cols = [(-w**2) / (wr_ ** 2 - w**2 + 2j * zr_ * wr_ * w) for wr_, zr_ in zip(wr, zr, strict=True)]
-        cols += [np.ones_like(w), (w / w.max()) ** 2]
-        return np.column_stack(cols)
-
-    def resid(p):
-        B = basis(p)
-        X, *_ = np.linalg.lstsq(B, Hn, rcond=None)
-        R = (B @ X - Hn).ravel()
-        return np.r_[R.real, R.imag]
-
-    p0 = np.ravel(np.column_stack([np.log(2 * np.pi * np.asarray(f0)), np.log(np.asarray(z0))]))
-    fb = (f.min(), f.max()) if f_bounds is None else f_bounds
-    lo = np.ravel(np.column_stack([np.log(2 * np.pi * fb[0]) + 0 * p0[0::2], np.full(len(f0), np.log(1e-4))]))
-    hi = np.ravel(np.column_stack([np.log(2 * np.pi * fb[1]) + 0 * p0[0::2], np.full(len(f0), np.log(0.5))]))
-    p0 = np.clip(p0, lo + 1e-9, hi - 1e-9)
-    sol = least_squares(resid, p0, bounds=(lo, hi), xtol=1e-12, ftol=1e-12, max_nfev=400)
-    B = basis(sol.x)
-    X, *_ = np.linalg.lstsq(B, Hn, rcond=None)
-    A = X[: len(f0)].T * scale[:, None]  # (n_ch, n_group)
-    return np.exp(sol.x[0::2]) / (2 * np.pi), np.exp(sol.x[1::2]), A, B @ X - Hn
+    return -z * w + 1j * w * np.sqrt(np.clip(1 - z * z, 0, None))
 
 
-def _fit_band(f, H, f0, z0, core, max_extra=3, gain=0.5, min_gap=0.003):
-    """:func:`_fit_group` with model-order selection: while the residual of the joint fit over all
-    channels shows a peak (a mode the picking missed, e.g. a weak one between two strong ones), add
-    a pole there and refit; keep it when the residual's norm falls below ``gain`` x its value and
-    every pole stays inside ``core`` (Hz), distinct (relative gap >= ``min_gap``) and under 30 %
-    damping. Noise or a small misfit does not halve the residual, a missing mode does.
+def _lsfd(poles, freq, H):
+    """pyEMA's LSFD on the accelerances H (nf, n_ch): complex residues (n_ch, n_poles)."""
+    from sdypy.EMA.EMA import LSFD
 
-    The poles' frequencies are bounded to ``core`` (a pick on a ripple between two modes must not
-    wander to the edge of the fitting band and stand in for both, as a 77 Hz pick did in the torso
-    scenario: 67.9 Hz at 9 % damping for modes at 72.8 and 79.3 Hz); a pole that ends on a bound
-    or above 30 % damping fitted no mode and is dropped."""
-    core = (float(max(core[0], f.min())), float(min(core[1], f.max())))
-    fr, zr, A, R = _fit_group(f, H, f0, z0, core)
-    inside = (f >= core[0]) & (f <= core[1])
-    for _ in range(max_extra):
-        ind = np.where(inside, np.sum(np.abs(R) ** 2, axis=1), 0.0)
-        if not ind.any():
-            break
-        f_new = f[int(np.argmax(ind))]
-        if np.min(np.abs(fr / f_new - 1)) < min_gap:
-            break
-        trial = _fit_group(f, H, np.r_[fr, f_new], np.r_[zr, 0.02], core)
-        fn, zn = trial[0], trial[1]
-        gaps = np.diff(np.sort(fn)) / np.sort(fn)[:-1]
-        ok = (np.linalg.norm(trial[3]) < gain * np.linalg.norm(R) and np.all((fn > core[0]) & (fn < core[1]))
-              and np.all(zn < 0.3) and np.all(gaps >= min_gap))
-        if not ok:
-            break
-        fr, zr, A, R = trial
-    keep = (fr > core[0] * (1 + 1e-6)) & (fr < core[1] * (1 - 1e-6)) & (zr < 0.3)
-    return fr[keep], zr[keep], A[:, keep]
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore")
+        A, Hr, _, _ = LSFD(np.asarray(poles, complex), H.T, freq, True, True, 0, freq.size, "accelerance")
+    return A, Hr.T
 
 
-def modal(time, force, accelerations, *, n_modes: int | None = None, f_range=None, prominence: float = 0.5,
-          group_ratio: float = 0.15, band: float = 0.2, hit_threshold: float = 0.1,
-          f_guess=None, source: str = "arrays") -> ModalIdentification:
-    """Natural frequencies [Hz], damping ratios and mode shapes from hammer-test records.
+def _split_cluster(idx, order, freq_p):
+    """Split a frequency cluster that holds k > 1 poles in most of its orders into k clusters
+    (close modes): centres from the rank-wise medians of the orders with exactly k poles."""
+    orders, counts = np.unique(order[idx], return_counts=True)
+    k = int(np.round(np.median(counts)))
+    if k < 2:
+        return [idx]
+    full = [o for o, c in zip(orders, counts, strict=True) if c == k]
+    ranks = np.array([np.sort(freq_p[idx][order[idx] == o]) for o in full])
+    centres = np.median(ranks, axis=0)
+    lab = np.argmin(np.abs(freq_p[idx][:, None] - centres[None, :]), axis=1)
+    return [idx[lab == j] for j in range(k) if np.any(lab == j)]
+
+
+def modal_from_frf(freq, frf, *, f_range=None, n_modes: int | None = None, f_guess=None, band: float = 0.2,
+                   max_order: int | None = None, stability=(0.01, 0.05, 0.98), min_stable: float = 0.15,
+                   zeta_max: float = 0.3, coherence=None, n_averages: int = 1, decay_rate: float = 0.0,
+                   estimator: str = "H1", band_ratio: float = 10.0, source: str = "FRFs") -> ModalIdentification:
+    """Modes from measured accelerances: LSCF poles and stabilisation (pyEMA), automatic picking,
+    LSFD shapes (pyEMA). ``freq`` (nf,) [Hz] from 0 with a constant step, ``frf`` (nf, n_ch)
+    [(m/s^2)/N]; the other parameters as in :func:`modal`.
+
+    A range wider than ``band_ratio`` (f_hi / f_lo) is analysed in log-spaced sub-bands that
+    overlap by 20 % (own code): LSCF maps 0..f_hi onto the unit circle, so a 2 Hz mode in a
+    1..200 Hz fit spans a few lines of 6400 and its poles do not stabilise; each sub-band keeps
+    the modes inside its core."""
+    freq = np.asarray(freq, float).ravel()
+    if freq.size < 16:
+        raise DataError(f"{source}: the frequency axis has {freq.size} lines; an FRF needs many more.")
+    lo, hi = f_range if f_range is not None else (max(freq[1], 0.5), 0.8 * freq[-1])
+    lo, hi = max(float(lo), freq[1]), min(float(hi), freq[-1])
+    f_range = (lo, hi)
+    kw = dict(n_modes=None, f_guess=f_guess, band=band, max_order=max_order, stability=stability,
+              min_stable=min_stable, zeta_max=zeta_max, coherence=coherence, n_averages=n_averages,
+              decay_rate=decay_rate, estimator=estimator, source=source)
+    nb = max(1, math.ceil(math.log(max(hi / max(lo, 1e-9), 1.0)) / math.log(band_ratio))) if lo > 0 else 1
+    if nb == 1:
+        return _pick_n(_modal_band(freq, frf, f_range=f_range, **kw), n_modes)
+    edges = np.geomspace(lo, hi, nb + 1)
+    parts = [_modal_band(freq, frf, f_range=(max(a / 1.2, lo), min(b * 1.2, hi)), **kw)
+             for a, b in zip(edges[:-1], edges[1:], strict=True)]
+    keep = [(p.frequencies >= a) & (p.frequencies < b if k < nb - 1 else p.frequencies <= b)
+            for k, (p, a, b) in enumerate(zip(parts, edges[:-1], edges[1:], strict=True))]
+    cat = lambda name: np.concatenate([getattr(p, name)[..., m] for p, m in zip(parts, keep, strict=True)], axis=-1)  # noqa: E731
+    f_all = cat("frequencies")
+    o = np.argsort(f_all)
+    d = [p.stabilisation for p in parts]
+    rank = np.empty(o.size, int)
+    rank[o] = np.arange(o.size)
+    clus, start = [], 0
+    for di, m in zip(d, keep, strict=True):
+        loc = np.full(m.size, -1)
+        loc[m] = rank[start + np.arange(int(m.sum()))]
+        start += int(m.sum())
+        clus.append(np.where(di.cluster >= 0, loc[np.maximum(di.cluster, 0)] if m.size else -1, -1))
+    diagram = StabilisationDiagram(np.concatenate([x.order for x in d]), np.concatenate([x.frequency for x in d]),
+                                   np.concatenate([x.damping for x in d]), np.concatenate([x.status for x in d]),
+                                   np.concatenate(clus), parts[-1].freq, parts[-1].stabilisation.frf_sum,
+                                   tuple(stability))
+    msg = "; ".join(f"{a:.3g}..{b:.3g} Hz: {int(m.sum())} of {p.message}" for p, a, b, m in
+                    zip(parts, edges[:-1], edges[1:], keep, strict=True))
+    if f_all.size == 0:
+        msg = "no mode in any sub-band: " + msg
+    r = ModalIdentification(f_all[o], cat("damping")[o], cat("shapes")[:, o], parts[0].freq, parts[0].frf,
+                            parts[0].coherence, n_averages, cat("half_power_damping")[o], cat("complex_shapes")[:, o],
+                            diagram, msg, estimator)
+    return _pick_n(r, n_modes)
+
+
+def _pick_n(r, n_modes):
+    """Keep the ``n_modes`` modes whose clusters are stable over the most orders."""
+    if n_modes is None or r.frequencies.size <= n_modes:
+        return r
+    s = r.stabilisation
+    score = np.array([np.unique(s.order[s.cluster == k]).size for k in range(r.frequencies.size)])
+    keep = np.sort(np.argsort(-score, kind="stable")[:n_modes])
+    remap = np.full(r.frequencies.size + 1, -1)
+    remap[keep] = np.arange(keep.size)
+    s.cluster = np.where(s.cluster >= 0, remap[s.cluster], -1)
+    return ModalIdentification(r.frequencies[keep], r.damping[keep], r.shapes[:, keep], r.freq, r.frf, r.coherence,
+                               r.n_averages, r.half_power_damping[keep], r.complex_shapes[:, keep], s,
+                               r.message + f"; the {n_modes} most stable kept", r.estimator)
+
+
+def _modal_band(freq, frf, *, f_range, n_modes, f_guess, band, max_order, stability, min_stable, zeta_max,
+                coherence, n_averages, decay_rate, estimator, source) -> ModalIdentification:
+    Model = _need("sdypy.EMA", "pyema").Model
+
+    freq = np.asarray(freq, float).ravel()
+    H = np.asarray(frf, complex)
+    H = H[:, None] if H.ndim == 1 else H
+    if H.shape[0] != freq.size:
+        raise DataError(f"{source}: the FRFs have {H.shape[0]} lines but the frequency axis {freq.size}.")
+    if freq.size < 16 or np.ptp(np.diff(freq)) > 1e-6 * np.diff(freq).mean() or freq[0] < 0:
+        raise DataError(f"{source}: the frequency axis must have >= 16 equally spaced lines from >= 0 Hz.")
+    if not np.all(np.isfinite(H)):
+        raise DataError(f"{source}: the FRFs have NaN or inf values.")
+    df = freq[1] - freq[0]
+    if freq[0] > 0:  # LSCF maps 0 .. f_max onto the unit circle: pad the missing low lines with zeros
+        pad = np.arange(int(round(freq[0] / df))) * df
+        freq, H = np.r_[pad, freq], np.r_[np.zeros((pad.size, H.shape[1])), H]
+    lo, hi = f_range if f_range is not None else (max(freq[1], 0.5), 0.8 * freq[-1])
+    lo, hi = max(float(lo), freq[1]), min(float(hi), freq[-1])
+    if not hi > lo:
+        raise DataError(f"{source}: f_range = {f_range!r} Hz lies outside the measured band "
+                        f"{freq[1]:g}..{freq[-1]:g} Hz.")
+    tol_f, tol_z, tol_mac = stability
+    n_lines = int(np.sum((freq >= lo) & (freq <= hi)))
+    if max_order is None:  # enough for ~ one mode per 20 lines, capped: the cost grows as order^3
+        max_order = int(np.clip(n_lines // 40, 15, 60))
+    max_order = int(min(max_order, max(n_lines // 4, 2)))
+    cut = int(np.searchsorted(freq, hi, side="right"))
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore")
+        lscf = Model(frf=H[:cut + 1].T, freq=freq[:cut + 1], lower=lo, upper=freq[min(cut, freq.size - 1)],
+                     pol_order_high=max_order, frf_form="accelerance")
+        lscf.get_poles("lscf", show_progress=False)
+    band_m = (freq >= lo) & (freq <= hi)
+    fb, Hb = freq[band_m], H[band_m]
+    # physical poles of each order, their LSFD residues, stability against the order below
+    O, P, S, V = [], [], [], []
+    prev = None
+    for k, poles in enumerate(lscf.all_poles):
+        p = np.asarray(poles)
+        p = p[np.isfinite(p)]
+        fp, zp = _f_zeta(p)
+        keep = (p.imag > 0) & (fp > lo) & (fp < hi) & (zp > 0) & (zp < zeta_max)
+        p = p[keep]
+        fp, zp = fp[keep], zp[keep]
+        if p.size:
+            A, _ = _lsfd(p, fb, Hb)
+        else:
+            A = np.zeros((H.shape[1], 0), complex)
+        st = np.zeros(p.size, int)
+        if prev is not None and prev[0].size and p.size:
+            pf, pz, pA = prev
+            for i in range(p.size):
+                rel = np.abs(pf / fp[i] - 1)
+                j = int(np.argmin(rel))
+                if rel[j] < tol_f:
+                    st[i] = 1
+                    if abs(zp[i] / pz[j] - 1) < tol_z:
+                        st[i] = 2
+                        if mac(A[:, i], pA[:, j])[0, 0] > tol_mac:
+                            st[i] = 3
+        O.append(np.full(p.size, 2 * (k + 1)))
+        P.append(p)
+        S.append(st)
+        V.append(A)
+        prev = (fp, zp, A)
+    order, poles_all, status = np.concatenate(O), np.concatenate(P), np.concatenate(S)
+    fpa, zpa = _f_zeta(poles_all)
+    n_orders = len(lscf.all_poles)
+    # cluster the fully stable poles
+    idx = np.flatnonzero(status == 3)
+    idx = idx[np.argsort(fpa[idx])]
+    clusters = []
+    if idx.size:
+        breaks = np.flatnonzero(fpa[idx][1:] / fpa[idx][:-1] - 1 > tol_f) + 1
+        for c in np.split(idx, breaks):
+            clusters += _split_cluster(c, order, fpa)
+    guesses = np.atleast_1d(np.asarray(f_guess, float)) if f_guess is not None else np.zeros(0)
+    need = max(3, math.ceil(min_stable * n_orders))
+    need_guess = max(3, math.ceil(0.5 * min_stable * n_orders))
+    cand = []
+    for c in clusters:
+        n_st = np.unique(order[c]).size
+        fc = float(np.median(fpa[c]))
+        near = guesses.size > 0 and np.min(np.abs(guesses / fc - 1)) <= band
+        if n_st >= (need_guess if near else need):
+            top = c[order[c] >= np.median(order[c])]
+            dist = float(np.min(np.abs(np.log(guesses / fc)))) if guesses.size else 0.0
+            cand.append((n_st, -dist, float(np.median(fpa[top])), float(np.median(zpa[top])), c))
+    # tie-breaker: a guessed mode that no fully stable cluster stands for may be taken from the
+    # poles stable in frequency and damping (no MAC criterion) within +-band of the guess
+    for g in guesses:
+        if not (lo < g < hi) or any(abs(c[2] / g - 1) <= 0.03 for c in cand):
+            continue
+        taken = np.zeros(order.size, bool)
+        for c in cand:
+            taken[c[4]] = True
+            taken |= np.abs(fpa / c[2] - 1) <= tol_f
+        idx2 = np.flatnonzero((status >= 2) & (np.abs(fpa / g - 1) <= band) & ~taken)
+        idx2 = idx2[np.argsort(fpa[idx2])]
+        if not idx2.size:
+            continue
+        br = np.flatnonzero(fpa[idx2][1:] / fpa[idx2][:-1] - 1 > tol_f) + 1
+        best = max(np.split(idx2, br), key=lambda c: np.unique(order[c]).size)
+        n_st = np.unique(order[best]).size
+        if n_st >= need_guess:
+            top = best[order[best] >= np.median(order[best])]
+            cand.append((n_st, -float(abs(math.log(np.median(fpa[best]) / g))), float(np.median(fpa[top])),
+                         float(np.median(zpa[top])), best))
+    if n_modes is not None and len(cand) > n_modes:
+        cand = sorted(cand, key=lambda x: (x[0], x[1]), reverse=True)[:n_modes]
+    cand.sort(key=lambda x: x[2])
+    cluster_id = np.full(order.size, -1)
+    for m_, c in enumerate(cand):
+        cluster_id[c[4]] = m_
+    frf_sum = np.sum(np.abs(H), axis=1)
+    diagram = StabilisationDiagram(order, fpa, zpa, status, cluster_id, freq, frf_sum, tuple(stability))
+    coh = np.ones_like(H, dtype=float) if coherence is None else np.asarray(coherence, float)
+    if not cand:
+        msg = (f"no mode: no cluster of poles stable in frequency ({100 * tol_f:g} %), damping ({100 * tol_z:g} %) "
+               f"and MAC (> {tol_mac:g}) over >= {need} of the {n_orders} LSCF model orders in {lo:g}..{hi:g} Hz "
+               f"({idx.size} fully stable poles in all); the record shows no structural mode (noise only?).")
+        e = np.zeros(0)
+        return ModalIdentification(e, e, np.zeros((H.shape[1], 0)), freq, H, coh, n_averages, e,
+                                   np.zeros((H.shape[1], 0), complex), diagram, msg, estimator)
+    fw = np.array([c[2] for c in cand])
+    zw = np.array([c[3] for c in cand])
+    pw = _pole(fw, zw)  # poles of the windowed FRFs: their residues
+    A, _ = _lsfd(pw, fb, Hb)
+    fr, zr = _f_zeta(pw + decay_rate)  # the exponential window's decay removed
+    shapes = []
+    for k in range(A.shape[1]):
+        v = A[:, k] * np.exp(-1j * np.angle(A[np.argmax(np.abs(A[:, k])), k]))
+        shapes.append(v.real / max(np.abs(v.real).max(), 1e-300))
+    ind = np.sum(np.abs(H) ** 2 / np.maximum(np.max(np.abs(H[band_m]) ** 2, axis=0), 1e-300), axis=1)
+    hp = np.array([_half_power(freq, ind, int(np.argmin(np.abs(freq - f)))) for f in fr])
+    msg = (f"{fr.size} modes: clusters of poles stable over >= {need} of {n_orders} LSCF model orders "
+           f"(max order {2 * n_orders}) in {lo:g}..{hi:g} Hz")
+    return ModalIdentification(fr, zr, np.array(shapes).T, freq, H, coh, n_averages, hp, A, diagram, msg, estimator)
+
+
+def modal(time, force, accelerations, *, n_modes: int | None = None, f_range=None, prominence: float | None = None,
+          group_ratio: float | None = None, band: float = 0.2, hit_threshold: float = 0.1,
+          f_guess=None, source: str = "arrays", estimator: str = "H1", force_window: float | None = None,
+          exp_window_end: float = 0.1, max_order: int | None = None, stability=(0.01, 0.05, 0.98),
+          min_stable: float = 0.15) -> ModalIdentification:
+    """Natural frequencies [Hz], damping ratios and mode shapes from hammer-test records: FRFs by
+    pyFRF, poles by pyEMA's LSCF with a stabilisation diagram, shapes by LSFD (module docstring).
 
     Parameters
     ----------
     time : (n,) [s]                 regularly sampled
-    force : (n,) [N]                hammer force, one or several hits
+    force : (n,) [N]                hammer force, one or several hits (averaged)
     accelerations : (n,) or (n, n_ch) [m/s^2]
-    n_modes : int, optional         keep the ``n_modes`` most prominent peaks (default: all peaks
-                                    above ``prominence`` x the largest)
+    n_modes : int, optional         keep at most the ``n_modes`` most stable modes
     f_range : (f_lo, f_hi) [Hz]     band searched for modes (default 0.5 Hz .. 0.8 Nyquist)
-    group_ratio : [-]               peaks closer than this (relative) are fitted together
-    band : [-]                      half-width of the fitting band, relative to the frequency
-    f_guess : (m,) [Hz], optional   expected frequencies (pre-test FE analysis): the peak nearest
-                                    each (within +-band) is fitted, instead of automatic picking
+    band : [-]                      a cluster within +-band (relative) of an ``f_guess`` needs half
+                                    the stability of one that no analysis predicted
+    f_guess : (m,) [Hz], optional   expected frequencies (pre-test FE analysis): the tie-breaker
+    estimator, force_window, exp_window_end : see :func:`frf_estimate`
+    max_order : int, optional       LSCF orders 2 .. 2 max_order (default from the number of lines
+                                    in the band, 15..60)
+    stability : (df, dzeta, MAC)    stabilisation criteria: relative frequency and damping change
+                                    between orders, least MAC (PolyMAX's usual 1 %, 5 %, 0.98)
+    min_stable : [-]                a mode's poles must be fully stable in this share of the orders
+    prominence, group_ratio :       parameters of the former peak-picking method; ignored (LSCF
+                                    fits the whole band); passing them warns
     """
-    freq, H, coh, navg = h1_estimate(time, force, accelerations, hit_threshold=hit_threshold, source=source)
-    from scipy.signal import find_peaks
-
-    lo, hi = f_range if f_range is not None else (max(freq[1], 0.5), 0.8 * freq[-1])
-    lo, hi = max(lo, freq[1]), min(hi, 0.8 * freq[-1])
-    sel = (freq >= lo) & (freq <= hi)
-    f, Hs = freq[sel], H[sel]
-    # mode indicator sum_j |H_j|^2 / max |H_j|^2 in log scale, detrended by its running median over
-    # +-25 % in frequency (removes the noise floor's slope); a peak must rise 1/prominence above it
-    ind = np.log(np.sum(np.abs(Hs) ** 2 / np.max(np.abs(Hs) ** 2, axis=0), axis=1))
-    lf = np.log(f)
-    trend = np.array([np.median(ind[np.abs(lf - x) < 0.25]) for x in lf])
-    lg = ind - trend
-    if f_guess is not None:  # pre-test analysis: the highest indicator within +-band of each guess
-        pk, maxima = [], find_peaks(lg)[0]
-        guesses = np.atleast_1d(np.asarray(f_guess, float))
-        for fg in guesses:
-            # the strongest local maximum within 3 %, else within +-band; an isolated guess (no other
-            # within +-2 band) takes the strongest within +-band at once (a ripple next to the guess
-            # must not hide a lone mode a few per cent away)
-            alone = np.sum(np.abs(guesses - fg) <= 2 * band * fg) == 1
-            for tol in ((band,) if alone else (0.03, band)):
-                m = maxima[np.abs(f[maxima] - fg) <= tol * fg]
-                if m.size:
-                    pk.append(int(m[np.argmax(lg[m])]))
-                    break
-        pk = np.unique(pk)
-        props = {"prominences": np.ones(pk.size)}
-    else:
-        pk, props = find_peaks(lg, prominence=-math.log(max(prominence, 1e-12)))
-    f0 = f[pk]
-    z0 = np.array([_half_power(f, np.exp(ind), k) for k in pk])
-    groups, cur = [], [0]
-    for i in range(1, pk.size):
-        if f0[i] / f0[cur[-1]] - 1 < group_ratio:
-            cur.append(i)
-        else:
-            groups.append(cur)
-            cur = [i]
-    groups.append(cur)
-    fr, zr, shapes = [], [], []
-    for g in groups:
-        fl, fh = f0[g[0]] * (1 - band), f0[g[-1]] * (1 + band)
-        m = (freq >= fl) & (freq <= fh)
-        if m.sum() < 4 * len(g) + 4:
-            m = np.abs(freq - 0.5 * (fl + fh)) <= max(0.5 * (fh - fl), (4 * len(g) + 4) * freq[1])
-        core = (max(f0[g[0]] * (1 - band / 2), lo), min(f0[g[-1]] * (1 + band / 2), hi))
-        a, b, A = _fit_band(freq[m], H[m], f0[g], z0[g], core)
-        fr += list(a)
-        zr += list(b)
-        for k in range(A.shape[1]):
-            v = A[:, k]
-            v = v * np.exp(-1j * np.angle(v[np.argmax(np.abs(v))]))
-            shapes.append(v.real / np.abs(v.real).max())
-    o = np.argsort(fr)
-    return ModalIdentification(np.asarray(fr)[o], np.asarray(zr)[o], np.array(shapes).T[:, o], freq, H, coh, navg,
-                               z0[o] if len(z0) == len(o) else z0)
-
-
-def mac(a, b) -> np.ndarray:
-    """Modal assurance criterion matrix MAC_ij = |a_i^H b_j|^2 / ((a_i^H a_i)(b_j^H b_j)) of the
-    columns of ``a`` (n, p) and ``b`` (n, q)."""
-    a = np.asarray(a)
-    b = np.asarray(b)
-    a = a[:, None] if a.ndim == 1 else a
-    b = b[:, None] if b.ndim == 1 else b
-    num = np.abs(a.conj().T @ b) ** 2
-    return num / np.outer(np.sum(np.abs(a) ** 2, 0), np.sum(np.abs(b) ** 2, 0))
-
-
-def comparison_table(f_num, shapes_num, f_exp, shapes_exp, max_ratio: float = 1.3) -> tuple[pd.DataFrame, np.ndarray]:
-    """Pair each experimental mode with the numerical mode of highest MAC among those within a
-    frequency ratio ``max_ratio`` (ties to the nearest frequency) and print in the layout of seed 001 Table 2: numerical [Hz], experimental [Hz],
-    difference [%] = |num - exp| / exp, plus the MAC. Returns (table, MAC matrix num x exp)."""
-    M = mac(shapes_num, shapes_exp)
-    rows = []
-    for j, fe in enumerate(f_exp):
-        lr = np.abs(np.log(np.asarray(f_num) / fe))  # candidates within a frequency ratio of max_ratio
-        score = np.where(lr <= np.log(max_ratio), M[:, j], -1.0) - 1e-3 * lr
-        i = int(np.argmax(score))
-        rows.append({"numerical [Hz]": f_num[i], "experimental [Hz]": fe,
-                     "difference [%]": 100 * abs(f_num[i] - fe) / fe, "MAC": M[i, j], "FE mode": i + 1})
-    return pd.DataFrame(rows), M
+    if prominence is not None or group_ratio is not None:
+        warnings.warn("modal: 'prominence' and 'group_ratio' belonged to the former peak-picking method and have no "
+                      "effect; the modes are picked from the LSCF stabilisation diagram (see 'stability', "
+                      "'min_stable').", UserWarning, stacklevel=2)
+    est = frf_estimate(time, force, accelerations, estimator=estimator, force_window=force_window,
+                       exp_window_end=exp_window_end, hit_threshold=hit_threshold, source=source)
+    return modal_from_frf(est.freq, est.frf, f_range=f_range, n_modes=n_modes, f_guess=f_guess, band=band,
+                          max_order=max_order, stability=stability, min_stable=min_stable,
+                          coherence=est.coherence, n_averages=est.n_averages, decay_rate=est.decay_rate,
+                          estimator=estimator, source=source)
 
 
 def synthetic_hammer_test(frequencies, damping, shapes_out, shape_in, *, fs: float = 1024.0, block: float = 16.0,
