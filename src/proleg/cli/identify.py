@@ -304,8 +304,10 @@ def fit_cmd(
 @identify_app.command("modal")
 @_data_errors
 def modal_cmd(
-    force_file: Annotated[Path, typer.Argument(help="CSV/Parquet with the time and hammer-force columns.")],
-    accel_file: Annotated[Path, typer.Argument(help="CSV/Parquet with the time and one column per accelerometer.")],
+    force_file: Annotated[Path, typer.Argument(help="CSV/Parquet with the time and hammer-force columns, or a UFF "
+                                                    "file (.uff/.unv, dataset 58: FRFs or time records).")],
+    accel_file: Annotated[Path | None, typer.Argument(help="CSV/Parquet with the time and one column per "
+                                                           "accelerometer (not with a UFF file).")] = None,
     time_col: Annotated[str, typer.Option("--time", help="Time column [s] in both files.")] = "time",
     force_col: Annotated[str | None, typer.Option("--force", help="Force column [N] (default: the first non-time column).")] = None,
     n_modes: Annotated[int | None, typer.Option("--n-modes", help="Keep the n most prominent peaks.")] = None,
@@ -313,13 +315,31 @@ def modal_cmd(
     f_max: Annotated[float | None, typer.Option("--f-max", help="Highest frequency searched [Hz].")] = None,
     json_out: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
 ):
-    """Experimental modal analysis of an impact-hammer test: H1 FRFs averaged over the hits,
-    natural frequencies, damping ratios (least-squares fit) and mode shapes (one value per channel)."""
+    """Experimental modal analysis of an impact-hammer test: FRFs averaged over the hits (pyFRF),
+    natural frequencies and damping ratios from LSCF's stabilisation diagram, mode shapes by LSFD
+    (pyEMA); one shape value per channel. A UFF file gives FRFs or time records directly."""
     import numpy as np
 
     from proleg.identify.data import check_signal, read_table
-    from proleg.identify.hammer import modal
+    from proleg.identify.hammer import modal, modal_from_frf
 
+    f_range = None if f_min is None and f_max is None else (f_min or 0.5, f_max or 1e9)
+    if force_file.suffix.lower() in (".uff", ".unv"):
+        from proleg.identify.uff import read_uff
+
+        if accel_file is not None:
+            raise DataError(f"{force_file}: a UFF file holds every channel; give no second file ({accel_file}).")
+        rec = read_uff(force_file)
+        if rec.kind == "frf":
+            acols = rec.channels
+            res = modal_from_frf(rec.x, rec.data, n_modes=n_modes, f_range=f_range, source=str(force_file))
+        else:
+            t, F, A, acols = rec.force_and_accelerations()
+            res = modal(t, F, A, n_modes=n_modes, f_range=f_range, source=str(force_file))
+        _modal_print(res, acols, json_out)
+        return
+    if accel_file is None:
+        raise DataError(f"{force_file}: give the accelerometer file too (or a UFF file with all channels).")
     fdf, adf = read_table(force_file), read_table(accel_file)
     for path, df in ((force_file, fdf), (accel_file, adf)):
         if time_col not in df.columns:
@@ -340,13 +360,20 @@ def modal_cmd(
         raise DataError(f"{accel_file}: column '{time_col}' differs from {force_file}'s; record both on one clock.")
     F = check_signal(fdf[force_col], source=str(force_file), column=force_col)
     A = np.column_stack([check_signal(adf[c], source=str(accel_file), column=c) for c in acols])
-    f_range = None if f_min is None and f_max is None else (f_min or 0.5, f_max or 1e9)
     res = modal(t, F, A, n_modes=n_modes, f_range=f_range, source=f"{force_file} / {accel_file}")
+    _modal_print(res, acols, json_out)
+
+
+def _modal_print(res, acols, json_out):
     if json_out:
         _json_out({"frequencies_hz": res.frequencies.tolist(), "damping": res.damping.tolist(),
-                   "shapes": {c: res.shapes[i].tolist() for i, c in enumerate(acols)}, "averages": res.n_averages})
+                   "shapes": {c: res.shapes[i].tolist() for i, c in enumerate(acols)}, "averages": res.n_averages,
+                   "message": res.message})
         return
-    t_ = Table(title=f"modal identification ({res.n_averages} hits averaged, H1)")
+    if res.frequencies.size == 0:
+        Console().print(res.message)
+        return
+    t_ = Table(title=f"modal identification ({res.n_averages} hits averaged, {res.estimator}, LSCF + LSFD)")
     for col in ["mode", "f [Hz]", "zeta [%]"] + acols:
         t_.add_column(col)
     for k in range(res.frequencies.size):

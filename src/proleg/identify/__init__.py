@@ -38,6 +38,10 @@ from .hammer import StabilisationDiagram as StabilisationDiagram
 from .hammer import frf_estimate as frf_estimate
 from .hammer import modal_from_frf as modal_from_frf
 from .correlation import auto_mac as auto_mac
+from .uff import read_uff as read_uff
+from .uff import read_modes_uff as read_modes_uff
+from .uff import write_frf_uff as write_frf_uff
+from .uff import write_modes_uff as write_modes_uff
 from .hammer import comparison_table as modal_comparison_table
 from .hammer import mac as mac
 from .hammer import modal as modal
