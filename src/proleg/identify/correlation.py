@@ -28,8 +28,8 @@ def mac(a, b, M=None) -> np.ndarray:
     if a.shape[0] != b.shape[0]:
         raise DataError(f"mac: the shapes have {a.shape[0]} and {b.shape[0]} DOFs; they must be given at the same "
                         "DOFs (select the FE DOFs of the measured points first).")
-    Mb = b if M is None else np.asarray(M) @ b
-    Ma = a if M is None else np.asarray(M) @ a
+    Mb = b if M is None else np.asarray(M @ b)  # M may be a scipy sparse matrix
+    Ma = a if M is None else np.asarray(M @ a)
     num = np.abs(a.conj().T @ Mb) ** 2
     den = np.outer(np.real(np.sum(a.conj() * Ma, 0)), np.real(np.sum(b.conj() * Mb, 0)))
     return num / np.where(den > 0, den, np.inf)

@@ -1,0 +1,58 @@
+"""identify.calibration (issue 31): a parameter fitted on synthetic data is recovered, the fit
+declares what it was fitted on, and a held-out score uses only held-out data."""
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from proleg.errors import DataError
+from proleg.identify.calibration import Calibrated, calibrate, check_held_out, split_scores
+
+
+def spring_mass_hz(k, m=2.0):
+    return math.sqrt(k / m) / (2 * math.pi)
+
+
+def test_parameter_recovered_from_synthetic_data():
+    """A 2 kg mass on a spring of 5e4 N/m rings at f = sqrt(k/m)/2pi; the calibration on that
+    frequency recovers k to the root finder's tolerance (rtol 1e-10 in log k)."""
+    k_true = 5e4
+    cal = calibrate(spring_mass_hz, name="k", bounds=(1e3, 1e6), unit="N/m", target=spring_mass_hz(k_true),
+                    fitted_on="first mode", source="synthetic", rtol=1e-12)
+    assert isinstance(cal, Calibrated) and cal.fitted_on == ("first mode",)
+    assert cal.value == pytest.approx(k_true, rel=1e-9)
+    assert not cal.at_bound and cal.achieved == pytest.approx(cal.target, rel=1e-9)
+    row = cal.row()
+    assert row["bounds"] == "1000 .. 1e+06" and row["fitted_on"] == "first mode"
+
+
+def test_target_outside_range_ends_on_a_bound():
+    cal = calibrate(spring_mass_hz, name="k", bounds=(1e3, 1e4), unit="N/m", target=spring_mass_hz(1e6),
+                    fitted_on=("f1",), source="synthetic")
+    assert cal.at_bound and cal.value == 1e4
+    with pytest.raises(DataError, match="bounds"):
+        calibrate(spring_mass_hz, name="k", bounds=(0.0, 1e4), unit="N/m", target=1.0, fitted_on="f1", source="s")
+
+
+def test_held_out_score_uses_only_held_out_data():
+    """Two masses on one spring type: k fitted on mass A's frequency, mass B's predicted. The
+    predicted table holds B only; scoring A as validation is refused."""
+    k_true = 3e4
+    meas = {"mass A": spring_mass_hz(k_true, 1.0), "mass B": spring_mass_hz(k_true, 4.0)}
+    cal = calibrate(lambda k: spring_mass_hz(k, 1.0), name="k", bounds=(1e3, 1e6), unit="N/m",
+                    target=meas["mass A"], fitted_on="mass A", source="synthetic")
+    tab = pd.DataFrame({"quantity": ["mass A", "mass B"],
+                        "model [Hz]": [spring_mass_hz(cal.value, 1.0), spring_mass_hz(cal.value, 4.0)],
+                        "measured [Hz]": [meas["mass A"], meas["mass B"]]})
+    fitted, predicted = split_scores(tab, [cal])
+    assert list(fitted["quantity"]) == ["mass A"] and list(predicted["quantity"]) == ["mass B"]
+    # the held-out prediction is a prediction: mass B at half mass A's frequency (m 4x)
+    assert predicted["model [Hz]"].iloc[0] == pytest.approx(meas["mass B"], rel=1e-8)
+    check_held_out(predicted["quantity"], [cal])
+    with pytest.raises(DataError, match="mass A"):
+        check_held_out(tab["quantity"], [cal])
+    with pytest.raises(DataError, match="quantity"):
+        split_scores(tab.rename(columns={"quantity": "q"}), [cal])
+    assert np.isfinite(cal.value)
