@@ -181,3 +181,26 @@ def test_cli_on_uff_files(tmp_path):
     assert json.loads(run.output)["frequencies_hz"] == pytest.approx(f, rel=0.002)
     bad = CliRunner().invoke(app, ["identify", "modal", str(tmp_path / "missing.uff")])
     assert bad.exit_code == 2 and "missing.uff" in bad.output
+
+
+def test_pathological_records_end_with_a_clear_answer():
+    """No open-ended loop: a record whose force is noise (no clean hit), a band with too few
+    lines, a force that is zero, each end at once with a DataError or with no mode and a message."""
+    from proleg.errors import DataError
+
+    rng = np.random.default_rng(1)
+    t = np.arange(4000) / 1000.0
+    try:
+        r = modal(t, rng.standard_normal(t.size), rng.standard_normal((t.size, 2)), f_range=(1.0, 300.0))
+        assert r.frequencies.size == 0 and "no mode" in r.message
+    except DataError as e:
+        assert "hits" in str(e)
+    (tt, F, A), _, _ = chain3(1, 0.0)
+    with pytest.raises(DataError, match="frequency lines"):
+        modal(tt, F, A, f_range=(10.0, 11.0))
+    with pytest.raises(DataError, match="force.*zero"):
+        modal(tt, 0 * F, A)
+    with pytest.raises(DataError, match="max_order"):
+        modal(tt, F, A, max_order=0)
+    with pytest.warns(UserWarning, match="prominence"):
+        modal(tt, F, A, f_range=(1.0, 100.0), prominence=0.5)

@@ -3,6 +3,9 @@
 Stiffness from the RMS line of force–stroke data, damping and Coulomb friction from hysteresis
 loops, damping from a drop test, the battery model, and statistics over repetitions with
 Student-t intervals. Files are read and checked by :mod:`proleg.identify.data`.
+Experimental modal analysis (:func:`modal`: pyFRF FRFs, pyEMA LSCF + LSFD, a stabilisation
+diagram picked automatically), UFF files (:func:`read_uff`), MAC, and calibration records that
+keep fitted-on data apart from validation (:class:`Calibrated`).
 """
 
 from .classical import Cycle as Cycle
@@ -38,6 +41,10 @@ from .hammer import StabilisationDiagram as StabilisationDiagram
 from .hammer import frf_estimate as frf_estimate
 from .hammer import modal_from_frf as modal_from_frf
 from .correlation import auto_mac as auto_mac
+from .calibration import Calibrated as Calibrated
+from .calibration import calibrate as calibrate
+from .calibration import check_held_out as check_held_out
+from .calibration import split_scores as split_scores
 from .uff import read_uff as read_uff
 from .uff import read_modes_uff as read_modes_uff
 from .uff import write_frf_uff as write_frf_uff

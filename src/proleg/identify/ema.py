@@ -189,13 +189,22 @@ def modal_from_frf(freq, frf, *, f_range=None, n_modes: int | None = None, f_gue
     lo, hi = f_range if f_range is not None else (max(freq[1], 0.5), 0.8 * freq[-1])
     lo, hi = max(float(lo), freq[1]), min(float(hi), freq[-1])
     f_range = (lo, hi)
+    if max_order is not None and (int(max_order) != max_order or max_order < 2):
+        raise DataError(f"{source}: max_order = {max_order!r} must be an integer >= 2.")
     kw = dict(n_modes=None, f_guess=f_guess, band=band, max_order=max_order, stability=stability,
               min_stable=min_stable, zeta_max=zeta_max, coherence=coherence, n_averages=n_averages,
               decay_rate=decay_rate, estimator=estimator, source=source)
     nb = max(1, math.ceil(math.log(max(hi / max(lo, 1e-9), 1.0)) / math.log(band_ratio))) if lo > 0 else 1
     if nb == 1:
         return _pick_n(_modal_band(freq, frf, f_range=f_range, **kw), n_modes)
-    edges = np.geomspace(lo, hi, nb + 1)
+    edges = list(np.geomspace(lo, hi, nb + 1))
+    df = freq[1] - freq[0]
+    while len(edges) > 2 and (min(edges[1] * 1.2, hi) - edges[0]) / df < 64:  # too few lines: merge upwards
+        del edges[1]
+    edges = np.array(edges)
+    nb = edges.size - 1
+    if nb == 1:
+        return _pick_n(_modal_band(freq, frf, f_range=f_range, **kw), n_modes)
     parts = [_modal_band(freq, frf, f_range=(max(a / 1.2, lo), min(b * 1.2, hi)), **kw)
              for a, b in zip(edges[:-1], edges[1:], strict=True)]
     keep = [(p.frequencies >= a) & (p.frequencies < b if k < nb - 1 else p.frequencies <= b)
@@ -265,6 +274,9 @@ def _modal_band(freq, frf, *, f_range, n_modes, f_guess, band, max_order, stabil
                         f"{freq[1]:g}..{freq[-1]:g} Hz.")
     tol_f, tol_z, tol_mac = stability
     n_lines = int(np.sum((freq >= lo) & (freq <= hi)))
+    if n_lines < 16:
+        raise DataError(f"{source}: only {n_lines} frequency lines in {lo:g}..{hi:g} Hz (step {df:g} Hz); widen "
+                        "f_range or record longer blocks (the line step is 1 / block length).")
     if max_order is None:  # enough for ~ one mode per 20 lines, capped: the cost grows as order^3
         max_order = int(np.clip(n_lines // 40, 15, 60))
     max_order = int(min(max_order, max(n_lines // 4, 2)))
