@@ -167,9 +167,9 @@ def test_cli_on_uff_files(tmp_path):
     write_frf_uff(tmp_path / "chain.uff", e.freq, e.frf, ["m1", "m2", "m3"])
     write_frf_uff(tmp_path / "chain_time.uff", t, np.column_stack([F, A]), ["hammer", "m1", "m2", "m3"], kind="time",
                   quantity=["force"] + ["acceleration"] * 3)
-    for name in ("chain_time.uff",):  # time records: the full pipeline
-        run = CliRunner().invoke(app, ["identify", "modal", str(tmp_path / name), "--json", "--f-min", "1",
-                                       "--f-max", "100"])
+    for est in ("H1", "H2"):  # time records: the full pipeline
+        run = CliRunner().invoke(app, ["identify", "modal", str(tmp_path / "chain_time.uff"), "--json", "--f-min", "1",
+                                       "--f-max", "100", "--estimator", est])
         assert run.exit_code == 0, run.output
         out = json.loads(run.output)
         assert out["frequencies_hz"] == pytest.approx(f, rel=0.002)
@@ -181,6 +181,8 @@ def test_cli_on_uff_files(tmp_path):
     assert json.loads(run.output)["frequencies_hz"] == pytest.approx(f, rel=0.002)
     bad = CliRunner().invoke(app, ["identify", "modal", str(tmp_path / "missing.uff")])
     assert bad.exit_code == 2 and "missing.uff" in bad.output
+    bad = CliRunner().invoke(app, ["identify", "modal", str(tmp_path / "chain_time.uff"), "--estimator", "H3"])
+    assert bad.exit_code == 2 and "H3" in bad.output
 
 
 def test_pathological_records_end_with_a_clear_answer():

@@ -313,6 +313,8 @@ def modal_cmd(
     n_modes: Annotated[int | None, typer.Option("--n-modes", help="Keep the n most prominent peaks.")] = None,
     f_min: Annotated[float | None, typer.Option("--f-min", help="Lowest frequency searched [Hz].")] = None,
     f_max: Annotated[float | None, typer.Option("--f-max", help="Highest frequency searched [Hz].")] = None,
+    estimator: Annotated[str, typer.Option("--estimator", help="FRF estimator: H1 (response noise), H2 (force noise) "
+                                                              "or Hv.")] = "H1",
     json_out: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
 ):
     """Experimental modal analysis of an impact-hammer test: FRFs averaged over the hits (pyFRF),
@@ -335,7 +337,7 @@ def modal_cmd(
             res = modal_from_frf(rec.x, rec.data, n_modes=n_modes, f_range=f_range, source=str(force_file))
         else:
             t, F, A, acols = rec.force_and_accelerations()
-            res = modal(t, F, A, n_modes=n_modes, f_range=f_range, source=str(force_file))
+            res = modal(t, F, A, n_modes=n_modes, f_range=f_range, estimator=estimator, source=str(force_file))
         _modal_print(res, acols, json_out)
         return
     if accel_file is None:
@@ -360,7 +362,7 @@ def modal_cmd(
         raise DataError(f"{accel_file}: column '{time_col}' differs from {force_file}'s; record both on one clock.")
     F = check_signal(fdf[force_col], source=str(force_file), column=force_col)
     A = np.column_stack([check_signal(adf[c], source=str(accel_file), column=c) for c in acols])
-    res = modal(t, F, A, n_modes=n_modes, f_range=f_range, source=f"{force_file} / {accel_file}")
+    res = modal(t, F, A, n_modes=n_modes, f_range=f_range, estimator=estimator, source=f"{force_file} / {accel_file}")
     _modal_print(res, acols, json_out)
 
 

@@ -23,8 +23,12 @@ Pipeline of :func:`modal` (and :func:`modal_from_frf` for FRFs measured elsewher
    LSFD gives at each order. Fully stable poles are clustered in frequency (single linkage, a
    cluster holding two poles of one order is split in two: close modes); a cluster is a mode when
    its poles are stable over at least ``min_stable`` of the orders. ``f_guess`` (a pre-test FE
-   analysis) is the tie-breaker: clusters within +-``band`` of a guess need half the stability,
-   and with ``n_modes`` the modes nearest a guess rank first among equally stable ones.
+   analysis) is the tie-breaker: clusters within +-``band`` of a guess need half the stability;
+   a guess that no picked mode lies within 3 % of may take a cluster of poles stable in
+   frequency and damping only (not MAC) within +-``band``, if stable over that many orders (a
+   weak mode next to strong ones); with ``n_modes`` the modes nearest a guess rank first among
+   equally stable ones. A range wider than a decade is analysed in log-spaced sub-bands
+   (:func:`proleg.identify.ema.modal_from_frf`).
 5. **Mode shapes by pyEMA's LSFD** (:func:`sdypy.EMA.EMA.LSFD`) with the picked poles, lower and
    upper residuals; the complex residues are rotated to real and max-abs normalised.
 
