@@ -206,3 +206,17 @@ def test_pathological_records_end_with_a_clear_answer():
         modal(tt, F, A, max_order=0)
     with pytest.warns(UserWarning, match="prominence"):
         modal(tt, F, A, f_range=(1.0, 100.0), prominence=0.5)
+
+
+def test_n_modes_keeps_the_most_stable_and_breaks_ties_by_the_guess():
+    (t, F, A), f, _ = chain3(1, 0.005)
+    full = modal(t, F, A, f_range=(1.0, 100.0))
+    s = full.stabilisation
+    score = [np.unique(s.order[s.cluster == k]).size for k in range(3)]
+    r = modal(t, F, A, f_range=(1.0, 100.0), n_modes=2, f_guess=f[1:])
+    assert r.frequencies.size == 2 and r.shapes.shape == (3, 2)
+    kept = [int(np.argmin(np.abs(full.frequencies - x))) for x in r.frequencies]
+    dropped = ({0, 1, 2} - set(kept)).pop()
+    assert all(score[dropped] <= score[k] for k in kept)  # never drops a more stable mode
+    if score[dropped] == min(score[k] for k in kept):  # a tie: the unguessed mode (7.1 Hz) goes
+        assert dropped == 0

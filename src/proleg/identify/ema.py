@@ -196,7 +196,7 @@ def modal_from_frf(freq, frf, *, f_range=None, n_modes: int | None = None, f_gue
               decay_rate=decay_rate, estimator=estimator, source=source)
     nb = max(1, math.ceil(math.log(max(hi / max(lo, 1e-9), 1.0)) / math.log(band_ratio))) if lo > 0 else 1
     if nb == 1:
-        return _pick_n(_modal_band(freq, frf, f_range=f_range, **kw), n_modes)
+        return _pick_n(_modal_band(freq, frf, f_range=f_range, **kw), n_modes, f_guess)
     edges = list(np.geomspace(lo, hi, nb + 1))
     df = freq[1] - freq[0]
     while len(edges) > 2 and (min(edges[1] * 1.2, hi) - edges[0]) / df < 64:  # too few lines: merge upwards
@@ -204,7 +204,7 @@ def modal_from_frf(freq, frf, *, f_range=None, n_modes: int | None = None, f_gue
     edges = np.array(edges)
     nb = edges.size - 1
     if nb == 1:
-        return _pick_n(_modal_band(freq, frf, f_range=f_range, **kw), n_modes)
+        return _pick_n(_modal_band(freq, frf, f_range=f_range, **kw), n_modes, f_guess)
     parts = [_modal_band(freq, frf, f_range=(max(a / 1.2, lo), min(b * 1.2, hi)), **kw)
              for a, b in zip(edges[:-1], edges[1:], strict=True)]
     keep = [(p.frequencies >= a) & (p.frequencies < b if k < nb - 1 else p.frequencies <= b)
@@ -232,16 +232,20 @@ def modal_from_frf(freq, frf, *, f_range=None, n_modes: int | None = None, f_gue
     r = ModalIdentification(f_all[o], cat("damping")[o], cat("shapes")[:, o], parts[0].freq, parts[0].frf,
                             parts[0].coherence, n_averages, cat("half_power_damping")[o], cat("complex_shapes")[:, o],
                             diagram, msg, estimator)
-    return _pick_n(r, n_modes)
+    return _pick_n(r, n_modes, f_guess)
 
 
-def _pick_n(r, n_modes):
-    """Keep the ``n_modes`` modes whose clusters are stable over the most orders."""
+def _pick_n(r, n_modes, f_guess=None):
+    """Keep the ``n_modes`` modes whose clusters are stable over the most orders; among equally
+    stable ones, those nearest a guess (``f_guess`` [Hz]) first."""
     if n_modes is None or r.frequencies.size <= n_modes:
         return r
     s = r.stabilisation
     score = np.array([np.unique(s.order[s.cluster == k]).size for k in range(r.frequencies.size)])
-    keep = np.sort(np.argsort(-score, kind="stable")[:n_modes])
+    g = np.atleast_1d(np.asarray(f_guess, float)) if f_guess is not None else np.zeros(0)
+    dist = (np.min(np.abs(np.log(r.frequencies[:, None] / g[None, :])), axis=1) if g.size
+            else np.zeros(r.frequencies.size))
+    keep = np.sort(np.lexsort((dist, -score))[:n_modes])
     remap = np.full(r.frequencies.size + 1, -1)
     remap[keep] = np.arange(keep.size)
     s.cluster = np.where(s.cluster >= 0, remap[s.cluster], -1)
