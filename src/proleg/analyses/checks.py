@@ -167,6 +167,7 @@ def check_simulate(system, args: dict, who: str = "simulate"):
     if not _any_traced_params(system):
         dt_max_eff = dt_max if dt_max is not None else min(t_span, 1e-2)  # simulate's default
         stiffness_warnings(system, dt_max_eff, dt_min if dt_min is not None else 1e-10, who)
+    contact_warnings(system, g("q0"), who)
 
 
 def _span(t_end, dt_output, t0, times):
@@ -282,6 +283,71 @@ def stiffness_warnings(system, dt_max: float, dt_min: float, who: str = "simulat
             warn(f"{who}: {what} on part '{part}' has a natural period of {T:.3g} s ({dt_max / T:.3g}× below "
                  f"dt_max = {dt_max:g} s): while it is excited the step collapses to ~{h:.2g} s. Check its units "
                  "(N/m, N m/rad), or soften it.")
+
+
+# ---------------------------------------------------------------------------------------------
+# contacts that start inside their plane
+# ---------------------------------------------------------------------------------------------
+def initial_penetrations(system, q0=None) -> list[tuple[str, float, float, float]]:
+    """(contact description, depth [m], its ``penetration`` [m], elastic force k·depth^e [N]) of
+    every contact that starts inside its plane (depth > 0), at ``q0`` (absolute coordinates,
+    (nq,)) or else the system's initial coordinates.
+
+    The gap is the contact law's own (assembly/extensions.py ``ContactGroup._law``), evaluated in
+    NumPy from the parts' positions and quaternions: depth = −n·(p − o), p the sphere's (or
+    cylinder's) point nearest the plane, o and n the plane marker's origin and z axis. A flexible
+    part's markers are taken at zero modal coordinates. Contact constants are the model's (a
+    sweep's traced values are not seen); traced coordinates are not checked.
+    """
+    from ..spatial.rotation import A_of_p
+
+    topo = system.topo
+    model = topo.model
+    contacts = list(getattr(model, "contacts", []) or [])
+    if model is None or not contacts:
+        return []
+    q = q0 if q0 is not None else system.params.get("q_init")
+    if q is None or is_traced(q):
+        return []
+    q = np.asarray(q, float)
+    nb = topo.nbody
+    if q.ndim != 1 or q.size < 7 * nb:
+        return []
+    index = {name: k for k, name in enumerate(topo.body_names)}
+
+    def frame(marker):
+        k = index.get(marker.part.name)
+        if k is None:  # ground
+            return np.asarray(marker.position, float), np.asarray(marker.orientation, float)
+        r, p = q[7 * k : 7 * k + 3], q[7 * k + 3 : 7 * k + 7]
+        A = np.asarray(A_of_p(p / np.linalg.norm(p)), float)
+        return r + A @ np.asarray(marker.local_position, float), A @ np.asarray(marker.local_orientation, float)
+
+    out = []
+    for c in contacts:
+        (pc, RI), (o, RP) = frame(c.marker), frame(c.plane)
+        n = RP[:, 2]
+        if c.kind == "cylinder":
+            a = RI[:, 2]
+            u = n - (n @ a) * a
+            dirn = u / np.sqrt(u @ u + 1e-300)
+        else:
+            dirn = n
+        depth = float(-(n @ (pc - float(c.radius) * dirn - o)))
+        if depth > 0:
+            out.append((f"{type(c).__name__} '{c.name}'", depth, float(c.penetration), float(c.stiffness) * depth ** float(c.exponent)))
+    return out
+
+
+def contact_warnings(system, q0=None, who: str = "simulate"):
+    """A ProlegWarning for each contact that starts deeper in its plane than its ``penetration``
+    (the depth of full damping): at t = 0 it pushes with k·depth^e, usually a sign that the model
+    was placed in the ground (a URDF base at the origin, a foot below z = 0), not on it."""
+    for what, depth, pen, force in initial_penetrations(system, q0):
+        if depth > pen:
+            warn(f"{who}: {what} starts {depth:.4g} m inside its plane, deeper than its penetration depth "
+                 f"{pen:.3g} m: at t = 0 it pushes with {force:.3g} N. Place the part on the plane (move it up by "
+                 f"{depth:.4g} m; load_urdf places a floating base on its feet unless base_position/base_height is given).")
 
 
 # ---------------------------------------------------------------------------------------------
