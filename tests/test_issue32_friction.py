@@ -104,13 +104,16 @@ def test_initial_penetration_warns_naming_contact_and_depth():
     (what, d, pen, force), = initial_penetrations(system)
     assert "'foot'" in what and d == pytest.approx(depth, rel=1e-12) and pen == 1e-4
     assert force == pytest.approx(1e5 * depth**1.5, rel=1e-12)
-    with pytest.warns(ProlegWarning, match=r"SphereContact 'foot' starts 0\.01955 m inside its plane"):
+    with pytest.warns(ProlegWarning, match=r"SphereContact 'foot' starts 0\.01955 m inside its plane.*273 N \(27\.9× the model's weight\)"):
         pl.simulate(system, t_end=1e-3)
-    # within the penetration depth: no warning (a foot resting at its static sag)
+    # no warning within the penetration depth, nor at about the static sag (1 mm deep: 3.2 N,
+    # a third of the 9.81 N weight, deeper than penetration = 0.1 mm: a model placed at rest)
+    sag = 0.05 - 0.001 + 0.1 * math.sin(angle)
     with warnings.catch_warnings():
         warnings.simplefilter("error", ProlegWarning)
-        s2 = pl.assemble(_ball(z, angle, penetration=0.03))
-        pl.simulate(s2, t_end=1e-3)
+        for s2 in (pl.assemble(_ball(z, angle, penetration=0.03)), pl.assemble(_ball(sag, angle))):
+            pl.simulate(s2, t_end=1e-3)
+    assert initial_penetrations(pl.assemble(_ball(sag, angle)))[0][1] == pytest.approx(0.001, rel=1e-9)
     # q0 given to simulate is the state that is checked: the same body lifted clear
     q0 = np.asarray(system.params["q_init"]).copy()
     q0[2] += 0.1
@@ -126,3 +129,87 @@ def test_buried_urdf_depth_is_reported():
     assert set(found) == {f"{leg}_foot.contact" for leg in ("lf", "rf", "lh", "rh")}
     for c in m.contacts:
         assert found[c.name] == pytest.approx(c.radius - c.marker.position[2], rel=1e-12)
+
+
+# ---------------------------------------------------------------------------------------------
+# 3. the CLI prints text as written, every option has help with its units, errors are one line
+# ---------------------------------------------------------------------------------------------
+def _commands(cmd, path=()):
+    yield path, cmd
+    if hasattr(cmd, "commands"):  # a group (typer vendors click: no isinstance on click.Group)
+        for name, sub in cmd.commands.items():
+            yield from _commands(sub, path + (name,))
+
+
+def test_cli_help_keeps_brackets_and_every_option_has_help():
+    """rich read lowercase [...] in help as markup: 'End time [s]' printed as 'End time '. Every
+    bracketed piece of every help string is now in the command's --help, and every option (``--rtol``
+    had none) says what it is."""
+    import re
+
+    import typer
+    from typer.testing import CliRunner
+
+    from proleg.cli.main import app
+
+    runner = CliRunner()
+    root = typer.main.get_command(app)
+    checked = 0
+    for path, cmd in _commands(root):
+        out = runner.invoke(app, [*path, "--help"])
+        assert out.exit_code == 0, (path, out.output)
+        flat = " ".join(out.output.split())
+        for p in cmd.params:
+            if getattr(p, "hidden", False) or p.name in ("help", "version"):
+                continue
+            assert getattr(p, "help", None) or p.param_type_name == "argument", f"proleg {' '.join(path)} {p.opts[0]} has no help"
+            for unit in re.findall(r"\[[^\]]*\]", getattr(p, "help", None) or ""):
+                assert " ".join(unit.split()) in flat, (path, unit)
+                checked += 1
+    assert checked >= 14  # the issue counted 14 help strings that lost their units
+
+
+def test_cli_errors_are_one_line(tmp_path):
+    """``--dt-output 0`` and ``--t-end -1`` ended in 60-77-line tracebacks; now one ``error:`` line
+    (and warnings one ``warning:`` line each), with the brackets of the message kept."""
+    from typer.testing import CliRunner
+
+    from proleg.cli.main import app
+
+    runner = CliRunner()
+    model = str(ROOT / "examples" / "four_bar.yaml")
+    for args, expect in (
+        (["--dt-output", "0"], "error: simulate: dt_output must be positive [s], got 0"),
+        (["--t-end", "-1"], "error: simulate: t_end = -1 s must be greater than t0"),
+    ):
+        res = runner.invoke(app, ["simulate", model, *args, "--out", str(tmp_path / "r.parquet")])
+        assert res.exit_code == 2 and res.exception is None or isinstance(res.exception, SystemExit), res.output
+        lines = [ln for ln in res.output.splitlines() if ln.strip()]
+        errors = [ln for ln in lines if ln.startswith("error:")]
+        assert len(errors) == 1 and errors[0].startswith(expect), res.output
+        assert all(ln.startswith(("error:", "warning:")) for ln in lines), res.output
+        assert "Traceback" not in res.output
+    # a message with brackets: the viewer on a file without the time column
+    import pandas as pd
+
+    pd.DataFrame({"x": [0.0]}).to_parquet(tmp_path / "x.parquet")
+    res = runner.invoke(app, ["view", str(tmp_path / "x.parquet"), "--no-open"])
+    assert res.exit_code == 2 and "has no 'time [s]' column" in res.output
+
+
+def test_cli_unexpected_failure_is_one_line_with_a_way_to_the_traceback(monkeypatch, tmp_path):
+    from typer.testing import CliRunner
+
+    import proleg.cli.main as climain
+
+    def boom(*a, **kw):
+        raise KeyError("no such thing [x]")
+
+    monkeypatch.setattr(climain, "_load", boom)
+    res = CliRunner().invoke(climain.app, ["info", str(tmp_path / "m.yaml")])
+    assert res.exit_code == 1
+    assert res.output.strip().count("\n") == 0 and "error: KeyError: 'no such thing [x]'" in res.output
+    assert "PROLEG_TRACEBACK=1" in res.output
+    monkeypatch.setenv("PROLEG_TRACEBACK", "1")
+    res = CliRunner().invoke(climain.app, ["info", str(tmp_path / "m.yaml")])
+    assert isinstance(res.exception, KeyError)

@@ -339,14 +339,27 @@ def initial_penetrations(system, q0=None) -> list[tuple[str, float, float, float
     return out
 
 
+# A contact resting under the model's weight sits at its static sag, which may exceed its
+# `penetration` (a 1 kg block on 1e5 N/m^1.5 corners: 0.18 mm against 0.1 mm); it is not warned
+# unless its elastic force exceeds this multiple of the whole model's weight.
+BURIED_WEIGHTS = 2.0
+
+
 def contact_warnings(system, q0=None, who: str = "simulate"):
     """A ProlegWarning for each contact that starts deeper in its plane than its ``penetration``
-    (the depth of full damping): at t = 0 it pushes with k·depth^e, usually a sign that the model
-    was placed in the ground (a URDF base at the origin, a foot below z = 0), not on it."""
+    (the depth of full damping) and pushes with more than BURIED_WEIGHTS times the model's weight
+    (k·depth^e at t = 0): the sign of a model placed in the ground (a URDF base at the origin, a
+    foot below z = 0), not on it. A model resting at its static sag is not warned."""
+    model = system.topo.model
+    weight = 0.0
+    if model is not None:
+        g = float(np.linalg.norm(np.asarray(model.gravity, float)))
+        weight = g * sum(float(getattr(p, "mass", 0.0)) for p in model.parts)
     for what, depth, pen, force in initial_penetrations(system, q0):
-        if depth > pen:
+        if depth > pen and force > BURIED_WEIGHTS * weight:
+            share = f" ({force / weight:.3g}× the model's weight)" if weight > 0 else ""
             warn(f"{who}: {what} starts {depth:.4g} m inside its plane, deeper than its penetration depth "
-                 f"{pen:.3g} m: at t = 0 it pushes with {force:.3g} N. Place the part on the plane (move it up by "
+                 f"{pen:.3g} m: at t = 0 it pushes with {force:.3g} N{share}. Place the part on the plane (move it up by "
                  f"{depth:.4g} m; load_urdf places a floating base on its feet unless base_position/base_height is given).")
 
 
