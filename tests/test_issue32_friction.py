@@ -213,3 +213,73 @@ def test_cli_unexpected_failure_is_one_line_with_a_way_to_the_traceback(monkeypa
     monkeypatch.setenv("PROLEG_TRACEBACK", "1")
     res = CliRunner().invoke(climain.app, ["info", str(tmp_path / "m.yaml")])
     assert isinstance(res.exception, KeyError)
+
+
+# ---------------------------------------------------------------------------------------------
+# 4. proleg.io and proleg.report as attributes of a bare `import proleg`
+# ---------------------------------------------------------------------------------------------
+def test_io_and_report_are_attributes_without_importing_them():
+    """The README's ``pl.io.load_urdf`` and ``pl.report.animate`` raised AttributeError in a fresh
+    process unless ``proleg.io``/``proleg.report`` had been imported; they load on first use (a
+    bare ``import proleg`` still does not import them)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, proleg as pl\n"
+        "print('proleg.io' in sys.modules, 'proleg.report' in sys.modules)\n"
+        "print(pl.io.load_urdf.__module__, pl.report.animate.__module__)\n"
+        "print(callable(pl.io.load_model_file), callable(pl.report.quicklook))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
+                         env={**__import__("os").environ, "PROLEG_CACHE_DIR": ""})
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.split() == ["False", "False", "proleg.io.urdf", "proleg.report.animate", "True", "True"]
+
+
+# ---------------------------------------------------------------------------------------------
+# 5. joint coordinates and rates in to_frame
+# ---------------------------------------------------------------------------------------------
+def test_to_frame_has_joint_angle_and_rate_of_a_pendulum():
+    """A rod pendulum (m = 1 kg, L = 0.5 m, pivot at its end, axis y) released 0.01 rad from
+    hanging. Its joint angle is the rotation since the modelled pose: θ(t) − θ0 with
+    θ(t) = θ0 cos(ω t), ω² = m g (L/2) / (m L²/3) (small-amplitude closed form: its period error
+    θ0²/16 ≈ 6e-6 relative is a phase error of 3.4e-5 rad at ωt = 5.4, 3.4e-7 rad of angle; the
+    tolerance is 1e-6 rad, with the integration error held far below by rtol 1e-9). The angle
+    also equals the COM's angle about the pivot and the rate the part's ω_y to round-off (same
+    state, two formulas)."""
+    th0, m, L, g = 0.01, 1.0, 0.5, 9.81
+    model = pl.Model("pendulum")
+    # rotation by th0 about y (x → −z): the rod hangs along −z, tipped towards +x
+    c, s = math.cos(th0), math.sin(th0)
+    R = np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+    com = R @ [0.0, 0.0, -L / 2]
+    rod = model.add_part("rod", m, [m * L**2 / 12, m * L**2 / 12, 1e-4], com, R)
+    model.add_joint(pl.Revolute("pivot", rod, model.ground, at=(0, 0, 0), axis=(0, 1, 0)))
+    res = pl.simulate(pl.assemble(model), t_end=1.0, dt_output=0.01, integrator=pl.GeneralizedAlpha(rtol=1e-9, atol=1e-12))
+    df = res.to_frame()
+    ang, rate = df["pivot.angle [rad]"].to_numpy(), df["pivot.angular_velocity [rad/s]"].to_numpy()
+    t = df["time [s]"].to_numpy()
+    w = math.sqrt(m * g * (L / 2) / (m * L**2 / 3))
+    # hanging angle φ = atan2(x, −z) of the COM (φ0 = −θ0 here); a rotation by +a about y turns
+    # (sin φ, −cos φ) into (sin(φ − a), −cos(φ − a)): the joint angle is φ0 − φ, its rate ω_y
+    phi = np.arctan2(df["rod.x [m]"], -df["rod.z [m]"]).to_numpy()
+    np.testing.assert_allclose(ang, phi[0] - phi, atol=1e-12)
+    np.testing.assert_allclose(rate, df["rod.wy [rad/s]"].to_numpy(), atol=1e-12)
+    # φ(t) = φ0 cos ωt: angle φ0 (1 − cos ωt) = θ0 (cos ωt − 1), rate −θ0 ω sin ωt
+    np.testing.assert_allclose(ang, th0 * (np.cos(w * t) - 1.0), atol=1e-6)
+    np.testing.assert_allclose(rate, -th0 * w * np.sin(w * t), atol=1e-6 * w)
+    assert np.ptp(ang) > 1.9 * th0  # it swung through
+
+
+def test_to_frame_has_prismatic_translation_and_velocity():
+    """A slider on a vertical prismatic joint falls freely: translation −g t²/2, velocity −g t
+    (the step's error control holds a quadratic to round-off; 1e-9 m is far below any physics)."""
+    model = pl.Model("slider")
+    block = model.add_part("block", 2.0, [0.01, 0.01, 0.01], [0.0, 0.0, 0.0])
+    model.add_joint(pl.Prismatic("rail", block, model.ground, at=(0, 0, 0), axis=(0, 0, 1)))
+    df = pl.simulate(pl.assemble(model), t_end=0.3, dt_output=0.01).to_frame()
+    t = df["time [s]"].to_numpy()
+    np.testing.assert_allclose(df["rail.translation [m]"], -0.5 * 9.81 * t**2, atol=1e-9)
+    np.testing.assert_allclose(df["rail.velocity [m/s]"], -9.81 * t, atol=1e-8)
+    assert "rail.angle [rad]" not in df.columns

@@ -162,9 +162,11 @@ from .model.flexible import FlexibleBody as FlexibleBody
 
 
 def __getattr__(name):
-    """``proleg.robots`` and ``proleg.study`` load on first use: they import pandas and the
-    robots' data, which a model of one's own does not need (``import proleg`` stays short)."""
-    if name in ("robots", "study"):
+    """``proleg.robots``, ``proleg.study``, ``proleg.io`` and ``proleg.report`` load on first use:
+    they import pandas, pydantic, matplotlib and the robots' data, which a model of one's own does
+    not need (``import proleg`` stays short); ``proleg.io.load_urdf(...)`` works without an
+    ``import proleg.io`` first."""
+    if name in ("robots", "study", "io", "report"):
         import importlib
 
         return importlib.import_module(f".{name}", __name__)

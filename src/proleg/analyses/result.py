@@ -319,6 +319,7 @@ class Result:
                 cols[f"{name}.v{ax} [m/s]"] = pr.velocity[:, k]
             for k, ax in enumerate("xyz"):
                 cols[f"{name}.w{ax} [rad/s]"] = pr.angular_velocity[:, k]
+        cols.update(self._joint_coordinate_columns())
         for o in self.system.topo.ct.owners:
             jr = self.joint(o.name)
             for k, ax in enumerate("xyz"):
@@ -343,6 +344,57 @@ class Result:
         for k in ("kinetic", "potential", "dissipated", "input", "total"):
             cols[f"energy.{k} [J]"] = e[k]
         return pd.DataFrame(cols)
+
+    def _joint_coordinate_columns(self) -> dict:
+        """The coordinate and rate of every revolute, screw, cylindrical and prismatic joint:
+        ``NAME.angle [rad]`` and ``NAME.angular_velocity [rad/s]`` (rotation of marker I relative
+        to J about z_J, as :meth:`joint`'s ``angle``: zero at the modelled pose, or the URDF's
+        position and sign for an imported joint, in (−π, π]), ``NAME.translation [m]`` and
+        ``NAME.velocity [m/s]`` (along z_J). Rates: z_J·(ω_I − ω_J) and
+        z_J·(v_I − v_J) + (ω_J × z_J)·(r_I − r_J), the time derivatives of those coordinates.
+
+        NumPy from the stored q, v (no compilation) when every joint marker is on a rigid part;
+        the compiled marker kinematics otherwise (flexible parts' markers move with the modes)."""
+        topo = self.system.topo
+        rot, trans = ("revolute", "screw", "cylindrical"), ("prismatic", "cylindrical")
+        joints = [j for j in topo.joints if getattr(j, "kind", "") in rot + trans]
+        if not joints or isinstance(self.q, jax.core.Tracer):
+            return {}
+        index = {n: k for k, n in enumerate(topo.marker_names)}
+        nb = topo.nbody
+        flexible = {k for k, p in enumerate(getattr(topo.model, "parts", [])) if getattr(p, "is_flexible", False)}
+        used = [index[m.name] for j in joints for m in (j.marker_i, j.marker_j)]
+        if any(int(topo.marker_body[m]) in flexible for m in used):
+            mk = self._marker_kin
+            kin = {m: tuple(np.asarray(x[:, m]) for x in (mk.r, mk.R, mk.v, mk.w)) for m in used}
+        else:
+            S, C = np.asarray(self.system.params["marker_s"]), np.asarray(self.system.params["marker_C"])
+            parts, kin, n = {}, {}, len(self.t)
+            for m in used:
+                b = int(topo.marker_body[m])
+                if b >= nb:  # ground
+                    kin[m] = (np.broadcast_to(S[m], (n, 3)), np.broadcast_to(C[m], (n, 3, 3)), np.zeros((n, 3)), np.zeros((n, 3)))
+                    continue
+                if b not in parts:
+                    parts[b] = self.part(topo.body_names[b])
+                pr = parts[b]
+                A = np.asarray(pr.orientation)
+                s = A @ S[m]
+                w = np.asarray(pr.angular_velocity)
+                kin[m] = (pr.position + s, A @ C[m], pr.velocity + np.cross(w, s), w)
+        cols = {}
+        for j in joints:
+            (rI, RI, vI, wI), (rJ, RJ, vJ, wJ) = kin[index[j.marker_i.name]], kin[index[j.marker_j.name]]
+            zJ = RJ[:, :, 2]
+            if j.kind in rot:
+                xI = RI[:, :, 0]
+                cols[f"{j.name}.angle [rad]"] = np.arctan2(np.sum(xI * RJ[:, :, 1], -1), np.sum(xI * RJ[:, :, 0], -1))
+                cols[f"{j.name}.angular_velocity [rad/s]"] = np.sum(zJ * (wI - wJ), -1)
+            if j.kind in trans:
+                d = rI - rJ
+                cols[f"{j.name}.translation [m]"] = np.sum(zJ * d, -1)
+                cols[f"{j.name}.velocity [m/s]"] = np.sum(zJ * (vI - vJ), -1) + np.sum(np.cross(wJ, zJ) * d, -1)
+        return cols
 
     def to_parquet(self, path):
         """Write :meth:`to_frame` to Parquet (pyarrow); returns the path.
