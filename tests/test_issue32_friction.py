@@ -283,3 +283,47 @@ def test_to_frame_has_prismatic_translation_and_velocity():
     np.testing.assert_allclose(df["rail.translation [m]"], -0.5 * 9.81 * t**2, atol=1e-9)
     np.testing.assert_allclose(df["rail.velocity [m/s]"], -9.81 * t, atol=1e-8)
     assert "rail.angle [rad]" not in df.columns
+
+
+# ---------------------------------------------------------------------------------------------
+# 6. the viewer draws links and springs from the Parquet file alone
+# ---------------------------------------------------------------------------------------------
+def test_viewer_draws_links_and_springs_without_the_model(tmp_path):
+    """``proleg view r.parquet`` (no --model) drew the parts as two dots and no spring. The file now
+    carries the joints' and springs' markers: each joint is two segments that meet at the joint
+    (COM of I → marker I, COM of J → marker J), the spring a line between its markers, at every
+    frame to float32 round-off (the scene stores float32)."""
+    import pandas as pd
+    from typer.testing import CliRunner
+
+    from proleg.cli.main import app
+    from proleg.report.animate import _unb64, scene_from_frame
+
+    m = pl.Model("double")
+    upper = m.add_part("upper", 1.0, [0.01, 0.09, 0.09], [0.5, 0, 0])
+    lower = m.add_part("lower", 1.0, [0.01, 0.09, 0.09], [1.5, 0, 0])
+    m.add_joint(pl.Revolute("shoulder", upper, m.ground, at=(0, 0, 0), axis=(0, 1, 0)))
+    m.add_joint(pl.Revolute("elbow", lower, upper, at=(1, 0, 0), axis=(0, 1, 0)))
+    tip = m.add_marker(lower, "tip", [2.0, 0, 0])
+    anchor = m.add_marker(m.ground, "anchor", [2.0, 0, 1.0])
+    m.add_force(pl.SpringDamper("spring", tip, anchor, stiffness=20.0, free_length=1.0))
+    res = pl.simulate(pl.assemble(m), t_end=0.5, dt_output=0.05)
+    res.to_parquet(tmp_path / "r.parquet")
+    df = pd.read_parquet(tmp_path / "r.parquet")
+    sc = scene_from_frame(df)  # no model
+    names = [ln["name"] for ln in sc["lines"]]
+    assert names == ["shoulder (upper)", "elbow (lower)", "elbow (upper)", "spring"]
+    assert [ln["kind"] for ln in sc["lines"]] == ["link", "link", "link", "spring_damper"]
+    pts = _unb64(sc["line_pts"], (len(names), 6)).reshape(len(sc["t"]), len(names), 6)
+    elbow = res.marker("elbow.I").position
+    k = np.searchsorted(res.t, sc["t"])
+    np.testing.assert_allclose(pts[:, 0, 3:], 0.0, atol=1e-6)  # shoulder pivot at the origin
+    np.testing.assert_allclose(pts[:, 1, 3:], elbow[k], atol=1e-6)
+    np.testing.assert_allclose(pts[:, 2, 3:], elbow[k], atol=1e-6)  # the two halves meet
+    np.testing.assert_allclose(pts[:, 1, :3], res.part("lower").position[k], atol=1e-6)
+    np.testing.assert_allclose(pts[:, 3, :3], res.marker("tip").position[k], atol=1e-6)
+    np.testing.assert_allclose(pts[:, 3, 3:], np.broadcast_to([2.0, 0, 1.0], pts[:, 3, 3:].shape), atol=1e-6)
+    assert np.ptp(pts[:, 1, 3]) > 0.05  # the elbow moved
+    out = CliRunner().invoke(app, ["view", str(tmp_path / "r.parquet"), "--no-open"])
+    assert out.exit_code == 0, out.output
+    assert '"kind":"link"' in (tmp_path / "r.html").read_text()

@@ -343,7 +343,9 @@ class Result:
         e = self.energy
         for k in ("kinetic", "potential", "dissipated", "input", "total"):
             cols[f"energy.{k} [J]"] = e[k]
-        return pd.DataFrame(cols)
+        df = pd.DataFrame(cols)
+        df.attrs["proleg.viewer"] = viewer_topology(self.system)
+        return df
 
     def _joint_coordinate_columns(self) -> dict:
         """The coordinate and rate of every revolute, screw, cylindrical and prismatic joint:
@@ -406,8 +408,7 @@ class Result:
         from .checks import writable
 
         path = writable(path, "to_parquet")
-        df = self.to_frame()
-        df.attrs = {}
+        df = self.to_frame()  # its attrs (the viewer's joint and spring markers) go into the file's metadata
         _atomic_parquet(df, path)
         return path
 
@@ -517,6 +518,49 @@ def _joint_reactions_one(system: System, qk, tk, lk, Pq=None, kin=None):
     Fl = jnp.einsum("nji,nj->ni", RI, F)
     Tl = jnp.einsum("nji,nj->ni", RI, T)
     return F, T, Fl, Tl, joint_angle(RI, RJ), joint_translation(rI, rJ, RJ)
+
+
+# force elements drawn as lines between their markers (report/animate.py LINE_KINDS)
+_LINE_KINDS = ("spring_damper", "hydraulic_actuator", "translational_actuator", "bushing")
+
+
+def viewer_topology(system: System) -> dict:
+    """What the viewer needs besides the part poses to draw a result file without its model
+    (``to_frame().attrs["proleg.viewer"]``, stored by :meth:`Result.to_parquet` with the table):
+    each joint's two markers and each spring, actuator and bushing's two markers as
+    ``[part, local position (3,) [m]]`` (part ``"ground"``: the position in ground), contact
+    radii [m]. Marker positions are in the part frame (COM origin, part axes) at the modelled
+    geometry; a flexible part's markers are drawn rigidly attached."""
+    topo = system.topo
+    S = system.params.get("marker_s")
+    if S is None or isinstance(S, jax.core.Tracer):
+        return {}
+    S = np.asarray(S)
+    index = {n: k for k, n in enumerate(topo.marker_names)}
+    nb = topo.nbody
+
+    def at(marker):
+        k = index.get(getattr(marker, "name", None))
+        if k is None:
+            return None
+        b = int(topo.marker_body[k])
+        return ["ground" if b >= nb else topo.body_names[b], [float(x) for x in S[k]]]
+
+    joints = []
+    for j in topo.joints:
+        ends = [at(getattr(j, "marker_i", None)), at(getattr(j, "marker_j", None))]
+        if None not in ends:
+            joints.append({"name": j.name, "kind": getattr(j, "kind", "joint"), "i": ends[0], "j": ends[1]})
+    lines = []
+    model = topo.model
+    elements = list(getattr(model, "forces", [])) + list(getattr(model, "actuators", [])) if model is not None else []
+    for e in elements:
+        if getattr(e, "kind", None) in _LINE_KINDS:
+            ends = [at(getattr(e, "i", None)), at(getattr(e, "j", None))]
+            if None not in ends:
+                lines.append({"name": e.name, "kind": e.kind, "i": ends[0], "j": ends[1]})
+    radii = {c.name: float(c.radius) for c in getattr(model, "contacts", [])} if model is not None else {}
+    return {"joints": joints, "lines": lines, "contact_radius": radii}
 
 
 def _owner_markers(topo):
