@@ -327,3 +327,33 @@ def test_viewer_draws_links_and_springs_without_the_model(tmp_path):
     out = CliRunner().invoke(app, ["view", str(tmp_path / "r.parquet"), "--no-open"])
     assert out.exit_code == 0, out.output
     assert '"kind":"link"' in (tmp_path / "r.html").read_text()
+
+
+# ---------------------------------------------------------------------------------------------
+# 7. the progress bar says "compiling" until the first chunk returns
+# ---------------------------------------------------------------------------------------------
+def test_progress_bar_says_compiling_until_the_first_chunk():
+    """e754ddf's bar read 't = 0.0000 s' through a 49 s compile. analyses/progress.py RunProgress:
+    'compiling…' until the first update, then the simulated time and the fraction done; the model
+    name printed as written."""
+    import io
+
+    from rich.console import Console
+
+    from proleg.analyses.progress import COMPILING, RunProgress
+
+    def shown(bar):
+        con = Console(file=io.StringIO(), width=120, record=True, color_system=None)
+        con.print(bar.progress.get_renderable())
+        return con.export_text()
+
+    bar = RunProgress("leg[2]", 0.5, 2.5, console=Console(file=io.StringIO()))
+    before = shown(bar)
+    assert "leg[2]" in before and COMPILING in before and "t =" not in before
+    bar.update(1.0)
+    after = shown(bar)
+    assert "t = 1.0000 s" in after and COMPILING not in after and not bar.compiling
+    assert bar.progress.tasks[0].percentage == pytest.approx(25.0)  # (1.0 − 0.5) / (2.5 − 0.5)
+    with RunProgress("m", 0.0, 1.0, console=Console(file=io.StringIO())) as b2:
+        assert b2.progress.live.is_started
+    assert not b2.progress.live.is_started
