@@ -357,3 +357,42 @@ def test_progress_bar_says_compiling_until_the_first_chunk():
     with RunProgress("m", 0.0, 1.0, console=Console(file=io.StringIO())) as b2:
         assert b2.progress.live.is_started
     assert not b2.progress.live.is_started
+
+
+# ---------------------------------------------------------------------------------------------
+# 8. "did you mean" over public names; read_store on a missing path
+# ---------------------------------------------------------------------------------------------
+def _spring_model():
+    m = pl.Model("bob")
+    bob = m.add_part("bob", 1.0, [0.01, 0.01, 0.01], [0.0, 0.0, -1.0])
+    top = m.add_marker(m.ground, "top", [0.0, 0.0, 0.0])
+    m.add_joint(pl.Prismatic("rail", bob, m.ground, at=(0, 0, -1.0), axis=(0, 0, 1)))
+    m.add_force(pl.SpringDamper("spring", m.add_marker(bob, "hook", [0.0, 0.0, -1.0]), top, stiffness=100.0, free_length=0.9))
+    return pl.assemble(m)
+
+
+def test_sweep_misspelt_parameter_suggests_public_names():
+    """e754ddf listed q_init, marker_C, ... and offered no suggestion."""
+    system = _spring_model()
+    with pytest.raises(ModelError, match=r"Unknown parameter 'spring.stifness' of model 'bob'\. Did you mean 'spring.stiffness'\?") as err:
+        pl.sweep(system, {"spring.stifness": [1.0, 2.0]}, t_end=0.1)
+    msg = str(err.value)
+    for internal in ("q_init", "v_init", "marker_C", "marker_s", "body_mass", "spring_damper_stiffness"):
+        assert internal not in msg
+    assert "bob.mass" in msg and "spring.damping" in msg
+    with pytest.raises(ModelError, match=r"Did you mean 'bob.mass'\?"):
+        system.with_params({"bob.mas": 2.0})
+    with pytest.raises(ModelError, match=r"Did you mean 'spring.stiffness'\?"):
+        system.with_params({"stiffness": 2.0})
+    assert "spring.stiffness" in system.public_param_names() and "q_init" not in system.public_param_names()
+
+
+def test_read_store_on_a_missing_path_says_so(tmp_path):
+    from proleg.errors import DataError
+
+    system = _spring_model()
+    with pytest.raises(DataError, match=r"there is no store at '.*nothere' \(no such file or folder\)\. Give the folder"):
+        pl.read_store(system, tmp_path / "nothere")
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(DataError, match="holds no Parquet part files"):
+        pl.read_store(system, tmp_path / "empty")

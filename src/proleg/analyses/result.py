@@ -687,10 +687,25 @@ def read_store(system: System, path) -> Result:
 
     from ..errors import DataError
 
+    import os
+    from pathlib import Path
+
     try:
-        df = pd.read_parquet(path)
+        where = Path(os.fspath(path))
+    except TypeError:
+        raise DataError(f"read_store: the store path must be a str or os.PathLike, got {path!r}.") from None
+    if not where.exists():
+        raise DataError(
+            f"read_store: there is no store at '{where}' (no such file or folder). Give the folder that "
+            "simulate(..., store=...) wrote, holding part-00000.parquet, ...; it is created when that run starts."
+        )
+    if where.is_dir() and not any(where.glob("*.parquet")):
+        raise DataError(f"read_store: the folder '{where}' holds no Parquet part files (part-00000.parquet, ...): "
+                        "no chunk of the run finished, or it is not a simulate(..., store=...) folder.")
+    try:
+        df = pd.read_parquet(where)
     except (OSError, ValueError) as exc:
-        raise DataError(f"read_store: cannot read '{path}' ({exc}).") from None
+        raise DataError(f"read_store: cannot read the store '{where}' as Parquet: {type(exc).__name__}: {exc}.") from None
     qc, vc = _state_columns(system.topo)
     missing = [c for c in ["time [s]", *qc, *vc] if c not in df.columns]
     if missing:
