@@ -396,3 +396,69 @@ def test_read_store_on_a_missing_path_says_so(tmp_path):
     (tmp_path / "empty").mkdir()
     with pytest.raises(DataError, match="holds no Parquet part files"):
         pl.read_store(system, tmp_path / "empty")
+
+
+# ---------------------------------------------------------------------------------------------
+# 9. roll-pitch-yaw in degrees in YAML model files
+# ---------------------------------------------------------------------------------------------
+def test_rpy_deg_is_fixed_axis_xyz():
+    """rpy_deg = [roll, pitch, yaw] about fixed x, y, z (URDF's rpy): against SciPy's extrinsic
+    'xyz' Euler angles and against URDF's own composition Rz Ry Rx, over random angles (matrix
+    products of three rotations: a few ulp)."""
+    from scipy.spatial.transform import Rotation
+
+    from proleg.spatial.rotation import euler_zyx_deg, matrix_from_rpy_deg, p_from_matrix
+
+    rng = np.random.default_rng(32)
+    for rpy in rng.uniform([-180, -89, -180], [180, 89, 180], (50, 3)):
+        R = matrix_from_rpy_deg(rpy)
+        np.testing.assert_allclose(R, Rotation.from_euler("xyz", rpy, degrees=True).as_matrix(), atol=1e-15)
+        # euler_zyx_deg reads the same angles back (as yaw, pitch, roll)
+        np.testing.assert_allclose(euler_zyx_deg(p_from_matrix(R))[::-1], rpy, atol=1e-9)
+    np.testing.assert_allclose(matrix_from_rpy_deg([0, 0, 90]), [[0, -1, 0], [1, 0, 0], [0, 0, 1]], atol=1e-16)
+
+
+def test_rpy_deg_in_a_model_file(tmp_path):
+    from proleg.io import load_model
+
+    text = """
+name: tilted
+parts:
+  - {name: a, mass: 1.0, inertia: [0.01, 0.02, 0.03], position: [0, 0, 0], rpy_deg: [10, -20, 30]}
+markers:
+  - {name: m, part: a, position: [0.1, 0, 0], rpy_deg: [0, 90, 0]}
+"""
+    f = tmp_path / "m.yaml"
+    f.write_text(text)
+    from scipy.spatial.transform import Rotation
+
+    model = load_model(f)
+    np.testing.assert_allclose(model.part("a").orientation, Rotation.from_euler("xyz", [10, -20, 30], degrees=True).as_matrix(), atol=1e-15)
+    np.testing.assert_allclose(model.marker("m").orientation, [[0, 0, 1], [0, 1, 0], [-1, 0, 0]], atol=1e-15)
+    f.write_text(text.replace("rpy_deg: [0, 90, 0]", "rpy_deg: [0, 90, 0], orientation: [1, 0, 0, 0]"))
+    with pytest.raises(ModelError, match="rpy_deg, not both"):
+        load_model(f)
+    f.write_text(text.replace("rpy_deg: [0, 90, 0]", "rpy_deg: [0, 90]"))
+    with pytest.raises(ModelError, match="rpy_deg"):
+        load_model(f)
+
+
+def test_four_bar_example_in_rpy_deg_is_the_old_model():
+    """examples/four_bar.yaml now gives each link's angle in degrees instead of 16-digit matrices:
+    the same rotations to round-off (the old matrices below), and the loop still closes."""
+    from proleg.io import load_model
+
+    old = {
+        "crank": [[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]],
+        "coupler": [[0.8534911287233514, 0.0, -0.5211073720362623], [0.0, 1.0, 0.0], [0.5211073720362623, 0.0, 0.8534911287233514]],
+        "rocker": [[-0.3375936831560904, 0.0, -0.9412919340423062], [0.0, 1.0, 0.0], [0.9412919340423062, 0.0, -0.3375936831560904]],
+    }
+    body = [ln for ln in (ROOT / "examples" / "four_bar.yaml").read_text().splitlines() if not ln.startswith("#")]
+    assert not any("orientation:" in ln for ln in body) and sum("rpy_deg:" in ln for ln in body) == 3
+    model = load_model(ROOT / "examples" / "four_bar.yaml")
+    for name, R in old.items():
+        np.testing.assert_allclose(model.part(name).orientation, R, atol=3e-16)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ProlegWarning)  # the loop's 3 redundant equations
+        system = pl.assemble(model)
+    assert system.topo.dof["initial_residual"][0] < 1e-15
