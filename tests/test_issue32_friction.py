@@ -462,3 +462,74 @@ def test_four_bar_example_in_rpy_deg_is_the_old_model():
         warnings.simplefilter("ignore", ProlegWarning)  # the loop's 3 redundant equations
         system = pl.assemble(model)
     assert system.topo.dof["initial_residual"][0] < 1e-15
+
+
+# ---------------------------------------------------------------------------------------------
+# 10. global JAX settings: documented, with the opt-outs that are safe
+# ---------------------------------------------------------------------------------------------
+def _fresh(code: str, **env) -> str:
+    import os
+    import subprocess
+    import sys
+    import textwrap
+
+    e = {k: v for k, v in os.environ.items() if k not in ("PROLEG_CACHE_DIR", "PROLEG_JAX_CACHE")}
+    out = subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True, text=True, timeout=300, env={**e, **env})
+    assert out.returncode == 0, out.stderr[-3000:]
+    return out.stdout.strip()
+
+
+def test_global_settings_page_names_every_switch():
+    """docs/global-settings.md exists and names every PROLEG_* environment variable the package
+    reads, and every JAX option `import proleg` sets (so a new one cannot go undocumented)."""
+    import re
+
+    page = (ROOT / "docs" / "global-settings.md").read_text()
+    src = "".join(p.read_text() for p in (ROOT / "src" / "proleg").rglob("*.py"))
+    env = set(re.findall(r"environ(?:\.get)?\(?\[?\s*\"(PROLEG_[A-Z_]+)\"", src))
+    assert {"PROLEG_CACHE_DIR", "PROLEG_JAX_CACHE", "PROLEG_XLA_DEFAULTS", "PROLEG_PRELOAD_LAPACK"} <= env
+    for name in env:
+        assert name in page, name
+    init = (ROOT / "src" / "proleg" / "__init__.py").read_text()
+    for opt in re.findall(r"config\.update\(\"(jax_[a-z0-9_]+)\"", init):
+        assert opt in page, opt
+    for flag in pl.XLA_CPU_DEFAULTS:
+        assert flag in page, flag
+
+
+def test_jax_cache_opt_out_leaves_jax_config_alone(tmp_path):
+    code = """
+        import jax
+        import proleg
+        c = jax.config
+        print(c.jax_enable_x64, c.jax_compilation_cache_dir, c.jax_persistent_cache_min_compile_time_secs)
+    """
+    on = _fresh(code, PROLEG_CACHE_DIR=str(tmp_path)).split()
+    assert on == ["True", str(tmp_path), "0.0"]
+    off = _fresh(code, PROLEG_CACHE_DIR=str(tmp_path), PROLEG_JAX_CACHE="0").split()
+    assert off[0] == "True" and off[1] == "None" and off[2] != "0.0"  # JAX's defaults
+    # a folder the user set first is kept, and so are JAX's thresholds
+    mine = _fresh("""
+        import jax
+        jax.config.update("jax_compilation_cache_dir", %r)
+        import proleg
+        print(jax.config.jax_compilation_cache_dir, jax.config.jax_persistent_cache_min_compile_time_secs)
+    """ % str(tmp_path / "mine"), PROLEG_CACHE_DIR=str(tmp_path)).split()
+    assert mine[0] == str(tmp_path / "mine") and mine[1] != "0.0"
+
+
+def test_float32_after_import_is_refused():
+    """float64 has no opt-out; switching it off after import is a clear error, not float32 results."""
+    out = _fresh("""
+        import jax
+        import proleg as pl
+        m = pl.Model("m")
+        p = m.add_part("p", 1.0, [1.0, 1.0, 1.0], [0.0, 0.0, 0.0])
+        system = pl.assemble(m)
+        jax.config.update("jax_enable_x64", False)
+        try:
+            pl.simulate(system, t_end=0.1)
+        except pl.ModelError as exc:
+            print("refused:", exc)
+    """, PROLEG_CACHE_DIR="")
+    assert out.startswith("refused: simulate: JAX's float64 mode (jax_enable_x64) was switched off")

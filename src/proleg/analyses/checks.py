@@ -188,7 +188,17 @@ def _any_traced_params(system) -> bool:
 
 
 def _check_system(system, who: str):
+    import jax
+
     from ..assembly.system import System
+
+    if not jax.config.jax_enable_x64:
+        raise ModelError(
+            f"{who}: JAX's float64 mode (jax_enable_x64) was switched off after `import proleg`; proleg's "
+            "solvers need float64 (tolerances near 1e-10 and constraint drift near 1e-12 are below float32's "
+            "resolution). Leave jax_enable_x64 on; give your own arrays dtype=jnp.float32 where you want float32 "
+            "(docs/global-settings.md)."
+        )
 
     if not isinstance(system, System):
         hint = " Assemble it first: system = proleg.assemble(model)." if type(system).__name__ == "Model" else ""
