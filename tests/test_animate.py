@@ -21,7 +21,7 @@ def swing():
     """The 2-link URDF pendulum released at hip 1.0 rad, 0.6 s."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UrdfWarning)
-        m = load_urdf(DATA, floating_base=False, initial_positions={"hip": 1.0, "knee": -0.5})
+        m = load_urdf(DATA, floating_base=False, initial_positions={"hip": 1.0, "knee": -0.5}, feet="spheres")
     return pl.simulate(pl.assemble(m), t_end=0.6, dt_output=0.01)
 
 

@@ -75,7 +75,7 @@ def test_two_link_matches_hand_model():
 
 
 def test_limits_damping_feet_and_notes():
-    mu = _load()
+    mu = _load(feet="spheres")  # a welded base gets ground contacts only when asked for
     kinds = {f.name: f.kind for f in mu.forces}
     assert kinds == {"hip.stop": "rotational_backlash", "knee.stop": "rotational_backlash", "knee.damping": "rotational_spring_damper"}
     stop = mu.force("knee.stop")

@@ -2,19 +2,21 @@
 
 import jax as _jax
 
+# float64 for the whole process: required (docs/global-settings.md lists what import proleg sets)
 _jax.config.update("jax_enable_x64", True)
 
 
 def _enable_compilation_cache():
     """Persistent XLA compilation cache in the user's cache folder, so a model compiled once is
     not recompiled by the next process (set PROLEG_CACHE_DIR to move it, or to "" to disable;
-    proleg.compile_cache keeps the traced functions in its export/ folder)."""
+    proleg.compile_cache keeps the traced functions in its export/ folder). PROLEG_JAX_CACHE=0
+    leaves JAX's configuration alone (docs/global-settings.md)."""
     import os
 
     from .compile_cache import cache_dir
 
     path = cache_dir()
-    if not path:
+    if not path or os.environ.get("PROLEG_JAX_CACHE", "1") == "0":
         return
     try:
         os.makedirs(path, exist_ok=True)
@@ -162,9 +164,11 @@ from .model.flexible import FlexibleBody as FlexibleBody
 
 
 def __getattr__(name):
-    """``proleg.robots`` and ``proleg.study`` load on first use: they import pandas and the
-    robots' data, which a model of one's own does not need (``import proleg`` stays short)."""
-    if name in ("robots", "study"):
+    """``proleg.robots``, ``proleg.study``, ``proleg.io`` and ``proleg.report`` load on first use:
+    they import pandas, pydantic, matplotlib and the robots' data, which a model of one's own does
+    not need (``import proleg`` stays short); ``proleg.io.load_urdf(...)`` works without an
+    ``import proleg.io`` first."""
+    if name in ("robots", "study", "io", "report"):
         import importlib
 
         return importlib.import_module(f".{name}", __name__)

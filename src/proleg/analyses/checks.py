@@ -167,6 +167,7 @@ def check_simulate(system, args: dict, who: str = "simulate"):
     if not _any_traced_params(system):
         dt_max_eff = dt_max if dt_max is not None else min(t_span, 1e-2)  # simulate's default
         stiffness_warnings(system, dt_max_eff, dt_min if dt_min is not None else 1e-10, who)
+    contact_warnings(system, g("q0"), who)
 
 
 def _span(t_end, dt_output, t0, times):
@@ -187,7 +188,17 @@ def _any_traced_params(system) -> bool:
 
 
 def _check_system(system, who: str):
+    import jax
+
     from ..assembly.system import System
+
+    if not jax.config.jax_enable_x64:
+        raise ModelError(
+            f"{who}: JAX's float64 mode (jax_enable_x64) was switched off after `import proleg`; proleg's "
+            "solvers need float64 (tolerances near 1e-10 and constraint drift near 1e-12 are below float32's "
+            "resolution). Leave jax_enable_x64 on; give your own arrays dtype=jnp.float32 where you want float32 "
+            "(docs/global-settings.md)."
+        )
 
     if not isinstance(system, System):
         hint = " Assemble it first: system = proleg.assemble(model)." if type(system).__name__ == "Model" else ""
@@ -282,6 +293,84 @@ def stiffness_warnings(system, dt_max: float, dt_min: float, who: str = "simulat
             warn(f"{who}: {what} on part '{part}' has a natural period of {T:.3g} s ({dt_max / T:.3g}× below "
                  f"dt_max = {dt_max:g} s): while it is excited the step collapses to ~{h:.2g} s. Check its units "
                  "(N/m, N m/rad), or soften it.")
+
+
+# ---------------------------------------------------------------------------------------------
+# contacts that start inside their plane
+# ---------------------------------------------------------------------------------------------
+def initial_penetrations(system, q0=None) -> list[tuple[str, float, float, float]]:
+    """(contact description, depth [m], its ``penetration`` [m], elastic force k·depth^e [N]) of
+    every contact that starts inside its plane (depth > 0), at ``q0`` (absolute coordinates,
+    (nq,)) or else the system's initial coordinates.
+
+    The gap is the contact law's own (assembly/extensions.py ``ContactGroup._law``), evaluated in
+    NumPy from the parts' positions and quaternions: depth = −n·(p − o), p the sphere's (or
+    cylinder's) point nearest the plane, o and n the plane marker's origin and z axis. A flexible
+    part's markers are taken at zero modal coordinates. Contact constants are the model's (a
+    sweep's traced values are not seen); traced coordinates are not checked.
+    """
+    from ..spatial.rotation import A_of_p
+
+    topo = system.topo
+    model = topo.model
+    contacts = list(getattr(model, "contacts", []) or [])
+    if model is None or not contacts:
+        return []
+    q = q0 if q0 is not None else system.params.get("q_init")
+    if q is None or is_traced(q):
+        return []
+    q = np.asarray(q, float)
+    nb = topo.nbody
+    if q.ndim != 1 or q.size < 7 * nb:
+        return []
+    index = {name: k for k, name in enumerate(topo.body_names)}
+
+    def frame(marker):
+        k = index.get(marker.part.name)
+        if k is None:  # ground
+            return np.asarray(marker.position, float), np.asarray(marker.orientation, float)
+        r, p = q[7 * k : 7 * k + 3], q[7 * k + 3 : 7 * k + 7]
+        A = np.asarray(A_of_p(p / np.linalg.norm(p)), float)
+        return r + A @ np.asarray(marker.local_position, float), A @ np.asarray(marker.local_orientation, float)
+
+    out = []
+    for c in contacts:
+        (pc, RI), (o, RP) = frame(c.marker), frame(c.plane)
+        n = RP[:, 2]
+        if c.kind == "cylinder":
+            a = RI[:, 2]
+            u = n - (n @ a) * a
+            dirn = u / np.sqrt(u @ u + 1e-300)
+        else:
+            dirn = n
+        depth = float(-(n @ (pc - float(c.radius) * dirn - o)))
+        if depth > 0:
+            out.append((f"{type(c).__name__} '{c.name}'", depth, float(c.penetration), float(c.stiffness) * depth ** float(c.exponent)))
+    return out
+
+
+# A contact resting under the model's weight sits at its static sag, which may exceed its
+# `penetration` (a 1 kg block on 1e5 N/m^1.5 corners: 0.18 mm against 0.1 mm); it is not warned
+# unless its elastic force exceeds this multiple of the whole model's weight.
+BURIED_WEIGHTS = 2.0
+
+
+def contact_warnings(system, q0=None, who: str = "simulate"):
+    """A ProlegWarning for each contact that starts deeper in its plane than its ``penetration``
+    (the depth of full damping) and pushes with more than BURIED_WEIGHTS times the model's weight
+    (k·depth^e at t = 0): the sign of a model placed in the ground (a URDF base at the origin, a
+    foot below z = 0), not on it. A model resting at its static sag is not warned."""
+    model = system.topo.model
+    weight = 0.0
+    if model is not None:
+        g = float(np.linalg.norm(np.asarray(model.gravity, float)))
+        weight = g * sum(float(getattr(p, "mass", 0.0)) for p in model.parts)
+    for what, depth, pen, force in initial_penetrations(system, q0):
+        if depth > pen and force > BURIED_WEIGHTS * weight:
+            share = f" ({force / weight:.3g}× the model's weight)" if weight > 0 else ""
+            warn(f"{who}: {what} starts {depth:.4g} m inside its plane, deeper than its penetration depth "
+                 f"{pen:.3g} m: at t = 0 it pushes with {force:.3g} N{share}. Place the part on the plane (move it up by "
+                 f"{depth:.4g} m; load_urdf places a floating base on its feet unless base_position/base_height is given).")
 
 
 # ---------------------------------------------------------------------------------------------

@@ -319,6 +319,7 @@ class Result:
                 cols[f"{name}.v{ax} [m/s]"] = pr.velocity[:, k]
             for k, ax in enumerate("xyz"):
                 cols[f"{name}.w{ax} [rad/s]"] = pr.angular_velocity[:, k]
+        cols.update(self._joint_coordinate_columns())
         for o in self.system.topo.ct.owners:
             jr = self.joint(o.name)
             for k, ax in enumerate("xyz"):
@@ -342,7 +343,60 @@ class Result:
         e = self.energy
         for k in ("kinetic", "potential", "dissipated", "input", "total"):
             cols[f"energy.{k} [J]"] = e[k]
-        return pd.DataFrame(cols)
+        df = pd.DataFrame(cols)
+        df.attrs["proleg.viewer"] = viewer_topology(self.system)
+        return df
+
+    def _joint_coordinate_columns(self) -> dict:
+        """The coordinate and rate of every revolute, screw, cylindrical and prismatic joint:
+        ``NAME.angle [rad]`` and ``NAME.angular_velocity [rad/s]`` (rotation of marker I relative
+        to J about z_J, as :meth:`joint`'s ``angle``: zero at the modelled pose, or the URDF's
+        position and sign for an imported joint, in (−π, π]), ``NAME.translation [m]`` and
+        ``NAME.velocity [m/s]`` (along z_J). Rates: z_J·(ω_I − ω_J) and
+        z_J·(v_I − v_J) + (ω_J × z_J)·(r_I − r_J), the time derivatives of those coordinates.
+
+        NumPy from the stored q, v (no compilation) when every joint marker is on a rigid part;
+        the compiled marker kinematics otherwise (flexible parts' markers move with the modes)."""
+        topo = self.system.topo
+        rot, trans = ("revolute", "screw", "cylindrical"), ("prismatic", "cylindrical")
+        joints = [j for j in topo.joints if getattr(j, "kind", "") in rot + trans]
+        if not joints or isinstance(self.q, jax.core.Tracer):
+            return {}
+        index = {n: k for k, n in enumerate(topo.marker_names)}
+        nb = topo.nbody
+        flexible = {k for k, p in enumerate(getattr(topo.model, "parts", [])) if getattr(p, "is_flexible", False)}
+        used = [index[m.name] for j in joints for m in (j.marker_i, j.marker_j)]
+        if any(int(topo.marker_body[m]) in flexible for m in used):
+            mk = self._marker_kin
+            kin = {m: tuple(np.asarray(x[:, m]) for x in (mk.r, mk.R, mk.v, mk.w)) for m in used}
+        else:
+            S, C = np.asarray(self.system.params["marker_s"]), np.asarray(self.system.params["marker_C"])
+            parts, kin, n = {}, {}, len(self.t)
+            for m in used:
+                b = int(topo.marker_body[m])
+                if b >= nb:  # ground
+                    kin[m] = (np.broadcast_to(S[m], (n, 3)), np.broadcast_to(C[m], (n, 3, 3)), np.zeros((n, 3)), np.zeros((n, 3)))
+                    continue
+                if b not in parts:
+                    parts[b] = self.part(topo.body_names[b])
+                pr = parts[b]
+                A = np.asarray(pr.orientation)
+                s = A @ S[m]
+                w = np.asarray(pr.angular_velocity)
+                kin[m] = (pr.position + s, A @ C[m], pr.velocity + np.cross(w, s), w)
+        cols = {}
+        for j in joints:
+            (rI, RI, vI, wI), (rJ, RJ, vJ, wJ) = kin[index[j.marker_i.name]], kin[index[j.marker_j.name]]
+            zJ = RJ[:, :, 2]
+            if j.kind in rot:
+                xI = RI[:, :, 0]
+                cols[f"{j.name}.angle [rad]"] = np.arctan2(np.sum(xI * RJ[:, :, 1], -1), np.sum(xI * RJ[:, :, 0], -1))
+                cols[f"{j.name}.angular_velocity [rad/s]"] = np.sum(zJ * (wI - wJ), -1)
+            if j.kind in trans:
+                d = rI - rJ
+                cols[f"{j.name}.translation [m]"] = np.sum(zJ * d, -1)
+                cols[f"{j.name}.velocity [m/s]"] = np.sum(zJ * (vI - vJ), -1) + np.sum(np.cross(wJ, zJ) * d, -1)
+        return cols
 
     def to_parquet(self, path):
         """Write :meth:`to_frame` to Parquet (pyarrow); returns the path.
@@ -354,8 +408,7 @@ class Result:
         from .checks import writable
 
         path = writable(path, "to_parquet")
-        df = self.to_frame()
-        df.attrs = {}
+        df = self.to_frame()  # its attrs (the viewer's joint and spring markers) go into the file's metadata
         _atomic_parquet(df, path)
         return path
 
@@ -465,6 +518,49 @@ def _joint_reactions_one(system: System, qk, tk, lk, Pq=None, kin=None):
     Fl = jnp.einsum("nji,nj->ni", RI, F)
     Tl = jnp.einsum("nji,nj->ni", RI, T)
     return F, T, Fl, Tl, joint_angle(RI, RJ), joint_translation(rI, rJ, RJ)
+
+
+# force elements drawn as lines between their markers (report/animate.py LINE_KINDS)
+_LINE_KINDS = ("spring_damper", "hydraulic_actuator", "translational_actuator", "bushing")
+
+
+def viewer_topology(system: System) -> dict:
+    """What the viewer needs besides the part poses to draw a result file without its model
+    (``to_frame().attrs["proleg.viewer"]``, stored by :meth:`Result.to_parquet` with the table):
+    each joint's two markers and each spring, actuator and bushing's two markers as
+    ``[part, local position (3,) [m]]`` (part ``"ground"``: the position in ground), contact
+    radii [m]. Marker positions are in the part frame (COM origin, part axes) at the modelled
+    geometry; a flexible part's markers are drawn rigidly attached."""
+    topo = system.topo
+    S = system.params.get("marker_s")
+    if S is None or isinstance(S, jax.core.Tracer):
+        return {}
+    S = np.asarray(S)
+    index = {n: k for k, n in enumerate(topo.marker_names)}
+    nb = topo.nbody
+
+    def at(marker):
+        k = index.get(getattr(marker, "name", None))
+        if k is None:
+            return None
+        b = int(topo.marker_body[k])
+        return ["ground" if b >= nb else topo.body_names[b], [float(x) for x in S[k]]]
+
+    joints = []
+    for j in topo.joints:
+        ends = [at(getattr(j, "marker_i", None)), at(getattr(j, "marker_j", None))]
+        if None not in ends:
+            joints.append({"name": j.name, "kind": getattr(j, "kind", "joint"), "i": ends[0], "j": ends[1]})
+    lines = []
+    model = topo.model
+    elements = list(getattr(model, "forces", [])) + list(getattr(model, "actuators", [])) if model is not None else []
+    for e in elements:
+        if getattr(e, "kind", None) in _LINE_KINDS:
+            ends = [at(getattr(e, "i", None)), at(getattr(e, "j", None))]
+            if None not in ends:
+                lines.append({"name": e.name, "kind": e.kind, "i": ends[0], "j": ends[1]})
+    radii = {c.name: float(c.radius) for c in getattr(model, "contacts", [])} if model is not None else {}
+    return {"joints": joints, "lines": lines, "contact_radius": radii}
 
 
 def _owner_markers(topo):
@@ -591,10 +687,25 @@ def read_store(system: System, path) -> Result:
 
     from ..errors import DataError
 
+    import os
+    from pathlib import Path
+
     try:
-        df = pd.read_parquet(path)
+        where = Path(os.fspath(path))
+    except TypeError:
+        raise DataError(f"read_store: the store path must be a str or os.PathLike, got {path!r}.") from None
+    if not where.exists():
+        raise DataError(
+            f"read_store: there is no store at '{where}' (no such file or folder). Give the folder that "
+            "simulate(..., store=...) wrote, holding part-00000.parquet, ...; it is created when that run starts."
+        )
+    if where.is_dir() and not any(where.glob("*.parquet")):
+        raise DataError(f"read_store: the folder '{where}' holds no Parquet part files (part-00000.parquet, ...): "
+                        "no chunk of the run finished, or it is not a simulate(..., store=...) folder.")
+    try:
+        df = pd.read_parquet(where)
     except (OSError, ValueError) as exc:
-        raise DataError(f"read_store: cannot read '{path}' ({exc}).") from None
+        raise DataError(f"read_store: cannot read the store '{where}' as Parquet: {type(exc).__name__}: {exc}.") from None
     qc, vc = _state_columns(system.topo)
     missing = [c for c in ["time [s]", *qc, *vc] if c not in df.columns]
     if missing:

@@ -97,20 +97,47 @@ class System:
                 out += [f"{n}.{k[len(g.kind) + 1:]}" for k in g.params()]
         return out
 
+    def public_param_names(self) -> list[str]:
+        """The parameters a designer sweeps, identifies or differentiates: ``element.field``
+        (``"spring.stiffness"``), ``part.mass``/``part.inertia`` and design variables, in model
+        order; not the assembled arrays (``q_init``, ``marker_C``, ...), which :meth:`param_names`
+        also lists and :meth:`with_params` also accepts."""
+        out = sorted(k[len("variable_"):] for k in self.params if k.startswith("variable_"))
+        for n in self.topo.body_names:
+            out += [f"{n}.mass", f"{n}.inertia"]
+        for g in self.topo.groups + self.topo.extensions:
+            for n in g.names:
+                out += [f"{n}.{k[len(g.kind) + 1:]}" for k in g.params()]
+        return out
+
+    def _unknown(self, key: str) -> ModelError:
+        """The error for a parameter name that is not one: a "did you mean" over the public
+        names, and those names (the internal arrays are not offered)."""
+        import difflib
+
+        names = self.public_param_names()
+        # 0.8: one or two letters off ('spring.stifness', 'bob.mas'), not every field of 'spring.'
+        close = difflib.get_close_matches(str(key), names, n=3, cutoff=0.8)
+        if not close:  # a bare field name: 'stiffness' → every 'element.stiffness'
+            close = [n for n in names if n.rsplit(".", 1)[-1] == str(key).rsplit(".", 1)[-1]][:3]
+        hint = f" Did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
+        shown = ", ".join(names[:40]) + (f", ... ({len(names)} in all: system.public_param_names())" if len(names) > 40 else "")
+        return ModelError(f"Unknown parameter '{key}' of model '{self.topo.name}'.{hint} Parameters: {shown}.")
+
     def _locate(self, key: str):
         if key in self.params:
             return key, None
         if f"variable_{key}" in self.params:
             return f"variable_{key}", None
         if "." not in key:
-            raise ModelError(f"Unknown parameter '{key}'. Valid names: {self.param_names()}")
+            raise self._unknown(key)
         elem, fld = key.rsplit(".", 1)
         if elem in self.topo.body_names and fld in ("mass", "inertia"):
             return f"body_{fld}", self.topo.body_names.index(elem)
         for g in self.topo.groups + self.topo.extensions:
             if elem in g.names and f"{g.kind}_{fld}" in self.params:
                 return f"{g.kind}_{fld}", g.names.index(elem)
-        raise ModelError(f"Unknown parameter '{key}'. Valid names: {self.param_names()}")
+        raise self._unknown(key)
 
     def with_params(self, updates: dict | None = None, **kw) -> System:
         """A copy with some parameters replaced (traceable: use inside vmap/grad).

@@ -15,12 +15,12 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.console import Console
 from rich.table import Table
 
 from ..errors import DataError
+from ._out import MARKUP, console, error
 
-identify_app = typer.Typer(help="Identify stiffness, damping, friction and battery parameters from measurements.",
+identify_app = typer.Typer(rich_markup_mode=MARKUP, help="Identify stiffness, damping, friction and battery parameters from measurements.",
                            no_args_is_help=True)
 
 _UNITS_HELP = ("Units per role, e.g. 'force=N,stroke=mm,time=ms'. Default: the column-name suffix "
@@ -28,8 +28,7 @@ _UNITS_HELP = ("Units per role, e.g. 'force=N,stroke=mm,time=ms'. Default: the c
 
 
 def _fail(message: str) -> None:
-    Console(stderr=True).print(f"[bold red]Error:[/] {message}", highlight=False, soft_wrap=True)
-    raise typer.Exit(code=2)
+    error(message)
 
 
 def _data_errors(fn):
@@ -78,7 +77,7 @@ def hysteresis(
     units: Annotated[str | None, typer.Option("--units", help=_UNITS_HELP)] = None,
     run_col: Annotated[str | None, typer.Option("--run-col", help="Column with a run id (else runs are "
                                                                   "split at time restarts/gaps).")] = None,
-    confidence: Annotated[float, typer.Option("--confidence", min=0.5, max=0.999)] = 0.95,
+    confidence: Annotated[float, typer.Option("--confidence", min=0.5, max=0.999, help="Confidence level of the intervals [-], 0.5-0.999.")] = 0.95,
     figure: Annotated[Path | None, typer.Option("--figure", help="Save loops + RMS line here (PNG/PDF/SVG).")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object instead of a table.")] = False,
 ) -> None:
@@ -101,7 +100,7 @@ def hysteresis(
             out["figure"] = str(figure)
         _json_out(out)
         return
-    con = Console()
+    con = console()
     rep = ("each loop is one repetition (one continuous run)" if res.repetition == "loop"
            else f"each of the {res.nruns} runs is one repetition")
     tb = Table(title=f"{data.name}: {len(res.loops)} loops, {len(res.repetitions)} repetitions ({rep})")
@@ -160,7 +159,7 @@ def drop(
                        ("Δl_max", res.dl_max, "m"), ("c (momentum fit)", res.c, "N s/m"),
                        ("k (momentum fit)", res.k, "N/m"), ("c (Eq. 6 as printed)", res.c_eq6, "N s/m")]:
         tb.add_row(name, "-" if not math.isfinite(v) else _g(v), u)
-    Console().print(tb)
+    console().print(tb)
 
 
 @identify_app.command("battery")
@@ -193,7 +192,7 @@ def battery(
     tb.add_row("V_nom", _g(fit.v_nom), _g(fit.v_nom_se), "V")
     tb.add_row("R_s", _g(fit.r_s), _g(fit.r_s_se), "Ω")
     tb.add_row("RMS residual", _g(fit.rms), "", "V")
-    Console().print(tb)
+    console().print(tb)
 
 
 @_data_errors
@@ -240,7 +239,7 @@ def validate_cmd(
     for sig, row in res.metrics.iterrows():
         tb.add_row(sig, row["sim"], _g(row["rms"]), _g(row["max_abs"]), f"{100 * row['nrms']:.2f} %",
                    f"{row['r']:.4f}", str(int(row["n"])))
-    Console().print(tb)
+    console().print(tb)
 
 
 def register(app: typer.Typer) -> None:
@@ -295,10 +294,8 @@ def fit_cmd(
     if json_out:
         typer.echo(_json.dumps({"params": dict(zip(res.names, map(float, res.values))), "stderr": dict(zip(res.names, map(float, res.stderr))), "rms": res.rms, "evaluations": res.iterations, "success": res.success}))
         return
-    from rich.console import Console
-
-    Console().print(res.table().to_string(index=False))
-    Console().print(f"rms residual {res.rms:.4g} (weighted), {res.iterations} evaluations: {res.message}")
+    console().print(res.table().to_string(index=False))
+    console().print(f"rms residual {res.rms:.4g} (weighted), {res.iterations} evaluations: {res.message}")
 
 
 @identify_app.command("modal")
@@ -380,4 +377,4 @@ def _modal_print(res, acols, json_out):
         t_.add_column(col)
     for k in range(res.frequencies.size):
         t_.add_row(str(k + 1), _g(res.frequencies[k]), _g(100 * res.damping[k]), *[_g(v) for v in res.shapes[:, k]])
-    Console().print(t_)
+    console().print(t_)

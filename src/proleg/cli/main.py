@@ -7,11 +7,13 @@ import sys
 from pathlib import Path
 
 import typer
-from rich.console import Console
 from rich.table import Table
 
-app = typer.Typer(add_completion=False, no_args_is_help=True, help="proleg: virtual prototyping of legged robots.")
-console = Console(stderr=True)
+from ._out import MARKUP, ErrorsAsOneLine, console, error, say
+
+# rich_markup_mode=None: help text as written ('[s]' stays); ErrorsAsOneLine: every error one line (cli/_out.py)
+app = typer.Typer(add_completion=False, no_args_is_help=True, help="proleg: virtual prototyping of legged robots.",
+                  rich_markup_mode=MARKUP, cls=ErrorsAsOneLine)
 
 # name -> (module, function, description); scenarios write into results/<name>/ by default
 SCENARIOS = {
@@ -57,14 +59,13 @@ def _load(model_path: Path, fixed_base: bool = False):
                 return load_urdf(model_path, floating_base=not fixed_base), {}
         return load_model_file(model_path)
     except ModelError as exc:
-        console.print(f"[red]error:[/] {exc}")
-        raise typer.Exit(2) from None
+        error(exc)
 
 
 @app.command()
 def info(
     model: Path = typer.Argument(..., help="Model file (YAML or .urdf)."),
-    json_out: bool = typer.Option(False, "--json"),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON object instead of a table."),
     fixed_base: bool = typer.Option(False, "--fixed-base", help="URDF: weld the root link to ground (default: floating base)."),
 ):
     """Parts, markers, joints, elements, degrees of freedom (Gruebler and Jacobian rank), redundant
@@ -106,16 +107,17 @@ def info(
     t = Table(title=f"model '{mdl.name}'", show_header=False)
     for k, v in data.items():
         t.add_row(k, ", ".join(map(str, v)) if isinstance(v, list) else str(v))
-    Console().print(t)
+    console().print(t)
 
 
 @app.command()
 def simulate(
-    model: Path = typer.Argument(..., help="Model file (YAML)."),
+    model: Path = typer.Argument(..., help="Model file (YAML or .urdf)."),
     t_end: float = typer.Option(None, "--t-end", help="End time [s] (default: the file's simulate.t_end)."),
-    dt_output: float = typer.Option(None, "--dt-output", help="Output interval [s]."),
+    dt_output: float = typer.Option(None, "--dt-output", help="Output interval [s] (default: the file's simulate.dt_output, else t_end/500)."),
     out: Path = typer.Option(Path("result.parquet"), "--out", help="Parquet file to write."),
-    rtol: float = typer.Option(None, "--rtol"),
+    rtol: float = typer.Option(None, "--rtol", help="Relative local error tolerance [-] of the step-size control "
+                               "(default: the file's simulate.rtol, else GeneralizedAlpha's 1e-6)."),
 ):
     """Simulate a model file and write the time histories to Parquet (units in column names)."""
     import proleg as pl
@@ -124,8 +126,7 @@ def simulate(
     mdl, opts = _load(model)
     t_end = t_end if t_end is not None else opts.get("t_end")
     if t_end is None:
-        console.print("[red]error:[/] give --t-end or a 'simulate: {t_end: ...}' section in the model file.")
-        raise typer.Exit(2)
+        error("give --t-end or a 'simulate: {t_end: ...}' section in the model file.")
     kw = {}
     dt = dt_output if dt_output is not None else opts.get("dt_output")
     if rtol is not None or opts.get("rtol") is not None:
@@ -138,11 +139,10 @@ def simulate(
     except SolverError as exc:
         if exc.result is not None and len(exc.result.t) > 1:
             exc.result.to_parquet(out)
-            console.print(f"[yellow]partial results ({len(exc.result.t)} outputs) written to {out}[/]")
-        console.print(f"[red]solver stopped:[/] {exc}")
-        raise typer.Exit(1) from None
+            say(f"partial results ({len(exc.result.t)} outputs) written to {out}", "yellow")
+        error(f"solver stopped: {exc}", 1)
     res.to_parquet(out)
-    console.print(f"{res}\nwrote {out}")
+    say(f"{res}\nwrote {out}")
 
 
 @app.command()
@@ -159,17 +159,16 @@ def run(
         t.add_column("what")
         for k, (_, _, d) in SCENARIOS.items():
             t.add_row(k, d)
-        Console().print(t)
+        console().print(t)
         if scenario != "list":
-            console.print(f"[red]error:[/] unknown scenario '{scenario}'. Valid: {', '.join(SCENARIOS)}")
-            raise typer.Exit(2)
+            error(f"unknown scenario '{scenario}'. Valid: {', '.join(SCENARIOS)}")
         return
     mod, fn, _ = SCENARIOS[scenario]
     target = getattr(importlib.import_module(mod), fn)
     out_dir = out_dir or Path("results") / scenario
     out_dir.mkdir(parents=True, exist_ok=True)
     path = target(out_dir)
-    console.print(f"[green]done:[/] {path}")
+    say(f"done: {path}", "green")
 
 
 @app.command()
@@ -186,20 +185,17 @@ def view(
     from proleg.report.animate import page, scene_from_frame
 
     if not result.is_file():
-        console.print(f"[red]error:[/] result file {result} not found.")
-        raise typer.Exit(2)
+        error(f"result file {result} not found.")
     df = pd.read_parquet(result)
     if "time [s]" not in df.columns:
-        console.print(f"[red]error:[/] {result} has no 'time [s]' column; expected a file written by Result.to_parquet.")
-        raise typer.Exit(2)
+        error(f"{result} has no 'time [s]' column; expected a file written by Result.to_parquet.")
     mdl = _load(model, fixed_base)[0] if model is not None else None
     scene = scene_from_frame(df, model=mdl)
     if not scene["parts"]:
-        console.print(f"[red]error:[/] {result} has no part pose columns ('NAME.x [m]', 'NAME.e0', ...).")
-        raise typer.Exit(2)
+        error(f"{result} has no part pose columns ('NAME.x [m]', 'NAME.e0', ...).")
     out = out or result.with_suffix(".html")
     out.write_text(page(scene, f"proleg: {result.name}"), encoding="utf-8")
-    console.print(f"wrote {out}")
+    say(f"wrote {out}")
     if open_:
         import webbrowser
 

@@ -16,6 +16,7 @@ from typing import Annotated
 import typer
 
 from ..errors import ConvergenceError, ModelError
+from ._out import error
 
 _LENGTH = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "in": 0.0254}
 _FORCE = {"n": 1.0, "kn": 1e3, "mn": 1e-3, "lbf": 4.4482216152605}
@@ -67,14 +68,14 @@ def prbm(
             material, parse_force(load, "--load"),
             None if deflection is None else parse_length(deflection, "--deflection"), damping_ratio)
     except (ModelError, ConvergenceError) as exc:
-        typer.echo(f"Error: {exc}", err=True)
-        raise typer.Exit(code=2) from exc
+        error(exc)
     data = link.as_dict()
     if json:
         typer.echo(_json.dumps(data))
         return
-    from rich.console import Console
     from rich.table import Table
+
+    from ._out import console
 
     r = math.pi / 180.0
     table = Table(title=f"PRB 1R model, {link.material.name} strip {link.length * 1e3:g} x {link.width * 1e3:g} x "
@@ -90,7 +91,7 @@ def prbm(
     table.add_row("K_Theta", f"{link.K_Theta:.5g}", "")
     table.add_row("c_theta", f"{link.c_theta:.5g}", "")
     table.add_row("pivot from clamp", f"{(1 - link.gamma) * link.length:.5g} m", "")
-    Console().print(table)
+    console().print(table)
 
 
 def register(app: typer.Typer) -> None:

@@ -13,12 +13,12 @@ import json as _json
 from pathlib import Path
 
 import typer
-from rich.console import Console
 
 from ..errors import DataError, ModelError
+from ._out import MARKUP, error, say
 
-study_app = typer.Typer(add_completion=False, no_args_is_help=True, help="Design studies: run a YAML study file, show a store's status, write its report.")
-console = Console(stderr=True)
+study_app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode=MARKUP,
+                        help="Design studies: run a YAML study file, show a store's status, write its report.")
 
 
 @study_app.command("run")
@@ -48,25 +48,23 @@ def run(
             kw["lanes"] = lanes
         table = study.run(progress=True, **kw)
     except (ModelError, DataError) as exc:
-        console.print(f"[red]error:[/] {exc}")
-        raise typer.Exit(2) from None
+        error(exc)
     ok = int((table["status"] == "success").sum())
-    console.print(f"[green]done:[/] {len(table)} variants ({ok} succeeded, {len(table) - ok} failed) in {kw['store']}")
+    say(f"done: {len(table)} variants ({ok} succeeded, {len(table) - ok} failed) in {kw['store']}", "green")
     if report:
         from ..study.report import study_report
 
-        console.print(f"report: {study_report(kw['store'])}")
+        say(f"report: {study_report(kw['store'])}")
 
 
 @study_app.command("status")
-def status(store: Path = typer.Argument(..., help="Study store folder."), json: bool = typer.Option(False, "--json")):
+def status(store: Path = typer.Argument(..., help="Study store folder."), json: bool = typer.Option(False, "--json", help="Print one JSON object.")):
     """Done / failed / pending variants of a study store."""
     from ..study.store import Store
 
     st = Store(store)
     if st.definition() is None:
-        console.print(f"[red]error:[/] '{store}' is not a study store (no study.json).")
-        raise typer.Exit(2)
+        error(f"'{store}' is not a study store (no study.json).")
     s = st.status()
     if json:
         typer.echo(_json.dumps(s))
@@ -84,8 +82,7 @@ def report(store: Path = typer.Argument(..., help="Study store folder."), out: P
     try:
         typer.echo(str(study_report(store, out)))
     except DataError as exc:
-        console.print(f"[red]error:[/] {exc}")
-        raise typer.Exit(2) from None
+        error(exc)
 
 
 def register(app: typer.Typer) -> None:

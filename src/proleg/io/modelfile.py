@@ -11,6 +11,7 @@ values are SI (m, kg, s, N, rad), and vectors are in ground coordinates at the m
     units: SI                           # optional; only SI for now
     parts:                              # Model.add_part
       - {name: upper, mass: 1.0, inertia: [0.01, 0.09, 0.09], position: [0.5, 0, 0]}
+      - {name: tilted, mass: 1.0, inertia: [0.01, 0.09, 0.09], position: [2, 0, 0], rpy_deg: [0, -30, 0]}
     markers:                            # Model.add_marker (part, ground-frame position/orientation)
       - {name: tip, part: upper, position: [1, 0, 0]}
     joints:                             # i, j: parts with at/axis, or markers without at
@@ -18,6 +19,11 @@ values are SI (m, kg, s, N, rad), and vectors are in ground coordinates at the m
     forces:
       - {type: spring_damper, name: spring, i: tip, j: anchor, stiffness: 50.0, free_length: 1.0}
     simulate: {t_end: 2.0, dt_output: 0.001}   # optional defaults for the CLI
+
+Orientations (parts and markers) are ``orientation:`` (a 3x3 rotation matrix, part axes →
+ground, or a unit quaternion [e0, e1, e2, e3], scalar first) or ``rpy_deg: [roll, pitch, yaw]``
+in degrees: rotations about the fixed ground axes x, then y, then z (URDF's ``rpy``, Adams'
+space-fixed 123), R = Rz(yaw) Ry(pitch) Rx(roll). Not both.
 
 Element types
 -------------
@@ -367,11 +373,11 @@ def _build(spec: ModelFile, where: _Where) -> Model:
     for n, p in enumerate(spec.parts):
         guard(
             ("parts", n),
-            lambda p=p: model.add_part(p.name, p.mass, p.inertia, p.position, p.orientation, p.velocity, p.angular_velocity),
+            lambda p=p: model.add_part(p.name, p.mass, p.inertia, p.position, p.rotation(), p.velocity, p.angular_velocity),
         )
     for n, m in enumerate(spec.markers):
         part = _lookup(model, where, ("markers", n, "part"), m.part, ("part",), " Define the part under 'parts:' first.")
-        guard(("markers", n), lambda m=m, part=part: model.add_marker(part, m.name, m.position, m.orientation))
+        guard(("markers", n), lambda m=m, part=part: model.add_marker(part, m.name, m.position, m.rotation()))
     for n, js in enumerate(spec.joints):
         _build_joint(model, where, ("joints", n), js, guard)
     for n, fs in enumerate(spec.forces):

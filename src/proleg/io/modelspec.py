@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import Annotated, Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_validator
 
 from ..model import joints as _j
 
@@ -55,25 +55,49 @@ class _Spec(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False, str_strip_whitespace=True)
 
 
-class PartSpec(_Spec):
+RPY_HELP = ("[roll, pitch, yaw] [deg]: rotations about the fixed ground axes x, then y, then z "
+            "(URDF's rpy, Adams' space-fixed 123), R = Rz(yaw) Ry(pitch) Rx(roll); instead of orientation")
+
+
+class _Oriented(_Spec):
+    """An orientation given as a matrix or quaternion (``orientation``) or as roll-pitch-yaw in
+    degrees (``rpy_deg``, convention in :data:`RPY_HELP`), not both."""
+
+    orientation: Orientation | None = Field(None, description="3x3 rotation matrix or unit quaternion (scalar first)")
+    rpy_deg: Vec3 | None = Field(None, description=RPY_HELP)
+
+    @model_validator(mode="after")
+    def _one_orientation(self):
+        if self.orientation is not None and self.rpy_deg is not None:
+            raise ValueError("give either orientation (matrix or quaternion) or rpy_deg, not both")
+        return self
+
+    def rotation(self):
+        """The orientation as given (matrix, quaternion or None), or the matrix of ``rpy_deg``."""
+        if self.rpy_deg is not None:
+            from ..spatial.rotation import matrix_from_rpy_deg
+
+            return matrix_from_rpy_deg(self.rpy_deg)
+        return self.orientation
+
+
+class PartSpec(_Oriented):
     """``Model.add_part``: a rigid body."""
 
     name: str = Field(description="part name, unique")
     mass: float = Field(gt=0, description="[kg], > 0")
     inertia: Inertia = Field(description="[Ixx, Iyy, Izz] or 3x3 [kg m^2], about the COM in part axes")
     position: Vec3 = Field(description="COM position [m] in ground")
-    orientation: Orientation | None = Field(None, description="3x3 rotation matrix or unit quaternion (scalar first)")
     velocity: Vec3 | None = Field(None, description="initial COM velocity [m/s] in ground")
     angular_velocity: Vec3 | None = Field(None, description="initial angular velocity [rad/s] in ground")
 
 
-class MarkerSpec(_Spec):
+class MarkerSpec(_Oriented):
     """``Model.add_marker``: a frame fixed to a part, given at its ground pose."""
 
     name: str = Field(description="marker name, unique")
     part: str = Field(description="name of the part carrying the marker (or ground)")
     position: Vec3 = Field(description="[m] in ground at the modelled pose")
-    orientation: Orientation | None = Field(None, description="3x3 rotation matrix or unit quaternion, ground frame")
 
 
 class _JointSpec(_Spec):

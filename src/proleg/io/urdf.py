@@ -22,8 +22,12 @@ Mapping (Adams merges rigid parts the same way, seed 001):
   → a :class:`RotationalSpringDamper`; ``<dynamics friction>`` → a smoothed Coulomb torque
   ``−F tanh(ω/ω_f)`` (a :class:`JointActuator`, approximated: reported);
 * the root link is a free part (``floating_base=True``) or welded to ground;
-* foot links (``feet=``; by default every link with a ``<collision><sphere>``) get a
-  :class:`SphereContact` with the ground plane at the sphere centre;
+* foot links (``feet=``; on a floating base by default every link with a ``<collision><sphere>``,
+  on a welded base none) get a :class:`SphereContact` with the ground plane at the sphere centre;
+* a floating base is placed so that its lowest foot sphere touches the ground plane z = 0 at
+  the initial joint positions (``base_height=`` or ``base_position=`` to place it yourself): a
+  URDF's root frame is usually the trunk centre, and at (0, 0, 0) the feet would start deep in
+  the ground (HyQ: 0.8 m, a 712 kN contact force at t = 0);
 * every ``<visual>`` is kept (:class:`Visual`) for :func:`proleg.report.animate`.
 
 Everything dropped or approximated is listed in ``model.urdf.notes`` and warned once
@@ -211,7 +215,8 @@ def load_urdf(
     joint_friction: bool = True,
     friction_velocity: float = 0.01,
     initial_positions: dict | None = None,
-    base_position=(0.0, 0.0, 0.0),
+    base_position=None,
+    base_height: float | None = None,
     base_orientation=None,
     gravity=(0.0, 0.0, -9.81),
     package_dirs=None,
@@ -223,9 +228,11 @@ def load_urdf(
     ----------
     path : str or Path, the .urdf file
     floating_base : bool, default True; the root link is a free part (False: welded to ground)
-    feet : None, list of link names, or dict link → radius [m]. None: every link with a
-        ``<collision><sphere>`` (radius and centre from it); ``()`` for no contacts. A named
-        link without a sphere gets ``foot_radius`` at its frame origin.
+    feet : None, ``"spheres"``, list of link names, or dict link → radius [m]. ``"spheres"``:
+        every link with a ``<collision><sphere>`` (radius and centre from it). None (default):
+        ``"spheres"`` on a floating base, no contacts on a welded one (a fixed-base arm or leg
+        on a test bench has no floor; ask for ``feet="spheres"`` to give it one). ``()`` for no
+        contacts. A named link without a sphere gets ``foot_radius`` at its frame origin.
     contact : dict, keyword arguments of :class:`proleg.SphereContact` (stiffness, damping,
         mu_static, ...) for every foot
     joint_stops : bool; revolute ``<limit>`` → :class:`RotationalBacklash` with
@@ -235,7 +242,11 @@ def load_urdf(
     joint_damping, joint_friction : bool; ``<dynamics damping friction>`` as a viscous torque
         [N m s/rad] and a Coulomb torque smoothed over ``friction_velocity`` [rad/s]
     initial_positions : dict joint name → position [rad or m], URDF sign and zero (default 0)
-    base_position : (3,) [m], root-link frame origin in ground
+    base_position : (3,) [m], root-link frame origin in ground. Default None: x = y = 0 and, on
+        a floating base with contacts, the height at which the lowest foot sphere touches the
+        ground plane z = 0 (zero gap) at ``initial_positions``; 0 without contacts or when welded
+    base_height : float [m], optional; the root-link origin's z, overriding the automatic
+        placement (and ``base_position``'s z)
     base_orientation : (3, 3) rotation or unit quaternion (scalar first), root-link axes → ground
     gravity : (3,) [m/s²]
     package_dirs : list of folders searched for ``package://`` mesh paths (besides the URDF's
@@ -246,7 +257,7 @@ def load_urdf(
     Model, with ``model.urdf`` (:class:`UrdfInfo`): link → part map, link frames, visuals, the
     notes on what was dropped or approximated.
     """
-    from ..model._validate import finite_array, rotation
+    from ..model._validate import finite_array, finite_scalar, rotation
     from ..model.contacts import SphereContact
     from ..model.control import JointActuator
     from ..model.forces import RotationalBacklash, RotationalSpringDamper
@@ -298,7 +309,10 @@ def load_urdf(
 
     # world frames of the links at the initial configuration (tree order)
     R0 = np.eye(3) if base_orientation is None else rotation("load_urdf base_orientation", base_orientation)
-    X_W = {root: _X(R0, finite_array("load_urdf base_position", base_position, (3,)))}
+    p0 = np.zeros(3) if base_position is None else finite_array("load_urdf base_position", base_position, (3,)).copy()
+    if base_height is not None:
+        p0[2] = finite_scalar("load_urdf base_height", base_height, unit="m")
+    X_W = {root: _X(R0, p0)}
     order = []
     stack = [root]
     while stack:  # depth first, in the file's order
@@ -308,6 +322,42 @@ def load_urdf(
             O = np.eye(4) if j.origin is None else np.asarray(j.origin, float)
             X_W[j.child] = X_W[ln] @ O @ _joint_motion(j.type, _axis(j), q0.get(j.name, 0.0))
         stack.extend(j.child for j in reversed(children[ln]))
+
+    # feet → contacts
+    if feet is None and not floating_base:
+        feet_d = {}
+    elif feet is None or (isinstance(feet, str) and feet == "spheres"):
+        feet_d = {}
+        for ln in order:
+            for c in links[ln].collisions or []:
+                if c.geometry is not None and c.geometry.sphere is not None:
+                    feet_d[ln] = None
+    elif isinstance(feet, dict):
+        feet_d = dict(feet)
+    elif isinstance(feet, str):
+        raise ModelError(f"load_urdf feet={feet!r}: expected None, 'spheres', a list of link names or a dict link → radius [m].")
+    else:
+        feet_d = {f: None for f in feet}
+    spheres = {}  # foot link → (sphere centre (3,) in the link frame [m], radius [m])
+    for ln, r in feet_d.items():
+        if ln not in links:
+            raise ModelError(f"load_urdf feet: no link named '{ln}' in {path}. Known links: {sorted(links)}")
+        center, radius = np.zeros(3), foot_radius
+        for c in links[ln].collisions or []:
+            if c.geometry is not None and c.geometry.sphere is not None:
+                center = (np.eye(4) if c.origin is None else np.asarray(c.origin, float))[:3, 3]
+                radius = float(c.geometry.sphere.radius)
+                break
+        if r is not None:
+            radius = float(r)
+        spheres[ln] = (center, radius)
+
+    # a floating base on the ground: lowest sphere bottom at z = 0 (the ground plane of SphereContact)
+    if floating_base and base_position is None and base_height is None and spheres:
+        bottom = min((X_W[ln] @ _X(p=c))[2, 3] - r for ln, (c, r) in spheres.items())
+        for ln in X_W:
+            X_W[ln] = X_W[ln].copy()
+            X_W[ln][2, 3] -= bottom
 
     # groups of links welded by fixed joints; the group is named after its top link
     group = {}
@@ -441,29 +491,8 @@ def load_urdf(
     if not floating_base:
         notes.append(f"root link '{root}' welded to ground (floating_base=False); its links' mass is not simulated")
 
-    # feet → contacts
     foot_list = []
-    if feet is None:
-        feet_d = {}
-        for ln in order:
-            for c in links[ln].collisions or []:
-                if c.geometry is not None and c.geometry.sphere is not None:
-                    feet_d[ln] = None
-    elif isinstance(feet, dict):
-        feet_d = dict(feet)
-    else:
-        feet_d = {f: None for f in feet}
-    for ln, r in feet_d.items():
-        if ln not in links:
-            raise ModelError(f"load_urdf feet: no link named '{ln}' in {path}. Known links: {sorted(links)}")
-        center, radius = np.zeros(3), foot_radius
-        for c in links[ln].collisions or []:
-            if c.geometry is not None and c.geometry.sphere is not None:
-                center = (np.eye(4) if c.origin is None else np.asarray(c.origin, float))[:3, 3]
-                radius = float(c.geometry.sphere.radius)
-                break
-        if r is not None:
-            radius = float(r)
+    for ln, (center, radius) in spheres.items():
         if group[ln] == "ground":
             continue
         Xc = X_W[ln] @ _X(p=center)
@@ -474,7 +503,11 @@ def load_urdf(
         1 for ln in order for c in (links[ln].collisions or []) if not (ln in foot_list and c.geometry is not None and c.geometry.sphere is not None)
     )
     if ncoll:
-        notes.append(f"{ncoll} collision shapes other than the foot spheres are not modelled (ground contact at the feet only)")
+        if foot_list:
+            notes.append(f"{ncoll} collision shapes other than the foot spheres are not modelled (ground contact at the feet only)")
+        else:
+            notes.append(f"{ncoll} collision shapes are not modelled: no ground contacts"
+                         + (" (a welded base gets none unless asked: feet='spheres' or a list of links)" if not floating_base and feet is None else ""))
 
     # visuals
     visuals = []

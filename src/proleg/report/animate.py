@@ -11,8 +11,12 @@ classic ``examples/js`` OrbitControls, so both inline as plain scripts into one 
 What is drawn: every part at its pose (COM position and Euler parameters) — its URDF visual
 meshes (STL/DAE/OBJ read with trimesh) and boxes/cylinders/spheres where the model came from
 URDF, otherwise a box with the part's principal inertia (the uniform box of equal mass and
-inertia); springs, actuators and bushings as lines between their markers; contacts as spheres
-at the contact point with a force arrow; the ground grid at z = 0 (z up).
+inertia); each joint as two blue segments, from part I's COM to marker I and from part J's COM
+to marker J (the mechanism's stick figure); springs, actuators and bushings as lines between their
+markers; contacts as spheres at the contact point with a force arrow; the ground grid at z = 0
+(z up). A Parquet file of :meth:`Result.to_frame` carries the joints', springs' and contacts'
+markers in its metadata (``attrs["proleg.viewer"]``), so ``proleg view`` draws the same lines
+without ``--model``.
 
 Use :func:`animate` for a page, :func:`animation_iframe` to embed one in a
 :class:`proleg.report.Report` (``report.add_html(animation_iframe(result))``), and
@@ -114,6 +118,10 @@ def scene_from_result(result, *, model=None, max_frames: int = 600) -> dict:
                     continue
                 lines.append({"name": e.name, "kind": g.kind})
                 pts.append(np.concatenate([result.marker(i.name).position[idx], result.marker(j.name).position[idx]], 1))
+    from ..analyses.result import viewer_topology
+
+    links, link_pts = _links({"joints": viewer_topology(result.system).get("joints", [])}, names, pose)  # springs drawn above
+    lines, pts = links + lines, link_pts + pts
     contacts, cdata = [], []
     for g in topo.extensions:
         if g.kind == "contact" and len(g):
@@ -135,15 +143,57 @@ def scene_from_frame(df, *, model=None, max_frames: int = 600) -> dict:
         [np.stack([df[f"{n}.{k}"].to_numpy()[idx] for k in ("x [m]", "y [m]", "z [m]", "e0", "e1", "e2", "e3")], 1) for n in names], 1
     )
     shapes, meshes = _shapes(model, names)
+    topo = df.attrs.get("proleg.viewer") or {}
+    lines, pts = _links(topo, names, pose)
+    radius = topo.get("contact_radius", {})
     contacts, cdata = [], []
     for c in df.columns:
         if c.endswith(".normal_force [N]"):
             n = c[: -len(".normal_force [N]")]
             cols = [f"{n}.point_{a} [m]" for a in "xyz"] + [f"{n}.force_{a} [N]" for a in "xyz"]
             if all(k in df.columns for k in cols):
-                contacts.append({"name": n, "radius": 0.0})
+                contacts.append({"name": n, "radius": float(radius.get(n, 0.0))})
                 cdata.append(np.stack([df[k].to_numpy()[idx] for k in cols], 1))
-    return _scene(t[idx], names, shapes, meshes, pose, [], [], contacts, cdata, getattr(model, "name", "result"))
+    return _scene(t[idx], names, shapes, meshes, pose, lines, pts, contacts, cdata, getattr(model, "name", "result"))
+
+
+def _marker_path(end, names, pose):
+    """(n, 3) ground positions of a marker given as [part, local position (3,)] over the frames
+    of ``pose`` ((n, nb, 7): COM position, Euler parameters); None for an unknown part."""
+    from ..spatial.rotation import A_of_p
+
+    part, s = end
+    s = np.asarray(s, float)
+    if part == "ground":
+        return np.broadcast_to(s, (pose.shape[0], 3))
+    if part not in names:
+        return None
+    b = names.index(part)
+    p = np.asarray(pose[:, b, 3:], float)
+    A = np.asarray(A_of_p(p / np.linalg.norm(p, axis=1, keepdims=True)))
+    return np.asarray(pose[:, b, :3], float) + A @ s
+
+
+def _links(topo: dict, names, pose):
+    """Lines from the viewer topology (analyses/result.py ``viewer_topology``): each joint as two
+    segments, part I's COM to marker I and part J's COM to marker J (the stick figure of the
+    mechanism, kind ``"link"``), and each spring, actuator and bushing between its markers."""
+    lines, pts = [], []
+    for j in topo.get("joints", []):
+        for side in ("i", "j"):
+            part = j[side][0]
+            end = _marker_path(j[side], names, pose)
+            if part == "ground" or end is None:
+                continue
+            com = np.asarray(pose[:, names.index(part), :3], float)
+            lines.append({"name": f"{j['name']} ({part})", "kind": "link"})
+            pts.append(np.concatenate([com, end], 1))
+    for e in topo.get("lines", []):
+        a, b = _marker_path(e["i"], names, pose), _marker_path(e["j"], names, pose)
+        if a is not None and b is not None:
+            lines.append({"name": e["name"], "kind": e["kind"]})
+            pts.append(np.concatenate([a, b], 1))
+    return lines, pts
 
 
 def _scene(t, names, shapes, meshes, pose, lines, pts, contacts, cdata, title):
@@ -304,7 +354,7 @@ const groups = S.parts.map((p, i) => { const grp = new THREE.Group(); grp.name =
     const X = new THREE.Matrix4(); X.set(...s.X); m.applyMatrix4(X); grp.add(m); }
   scene.add(grp); return grp; });
 const lines = S.lines.map(l => { const g = new THREE.BufferGeometry(); g.setAttribute('position', new THREE.BufferAttribute(new Float32Array(6), 3));
-  const o = new THREE.Line(g, new THREE.LineBasicMaterial({color: l.kind === 'bushing' ? 0x333333 : 0xd62728})); scene.add(o); return o; });
+  const o = new THREE.Line(g, new THREE.LineBasicMaterial({color: l.kind === 'link' ? 0x1f77b4 : l.kind === 'bushing' ? 0x333333 : 0xd62728})); scene.add(o); return o; });
 const fscale = S.force_max > 0 ? 0.3*L / S.force_max : 0;
 const contacts = S.contacts.map(c => { const b = new THREE.Mesh(new THREE.SphereGeometry(Math.max(c.radius, 0.01*L), 16, 12), new THREE.MeshStandardMaterial({color:0x222222}));
   const a = new THREE.ArrowHelper(new THREE.Vector3(0,0,1), new THREE.Vector3(), 0.1, 0x2ca02c); scene.add(b); scene.add(a); return {b, a}; });

@@ -114,6 +114,22 @@ def euler_zyx_deg(p):
     return np.degrees(np.stack([yaw, pitch, roll], -1))
 
 
+def matrix_from_rpy_deg(rpy_deg) -> np.ndarray:
+    """Rotation matrix (part axes → ground) from roll, pitch, yaw [deg] (numpy).
+
+    Convention of URDF's ``<origin rpy>`` and Adams' space-fixed "123" orientation: rotate by
+    roll about ground x, then pitch about ground y, then yaw about ground z (fixed axes, X then Y
+    then Z), R = R_z(yaw) R_y(pitch) R_x(roll); the same as body-fixed z-y'-x'' with yaw first.
+    :func:`euler_zyx_deg` returns these angles (as yaw, pitch, roll) from a quaternion.
+    """
+    r, p, y = np.radians(np.asarray(rpy_deg, float))
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    Rx = np.array([[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]])
+    Ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
+    Rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
+    return Rz @ Ry @ Rx
+
+
 def frame_from_axis(axis, xhint=None) -> np.ndarray:
     """Right-handed rotation matrix whose z column is ``axis`` (numpy). x follows ``xhint`` if given."""
     z = np.asarray(axis, dtype=float)

@@ -104,12 +104,14 @@ class Space:
     def spec(self) -> dict:
         return {k: d.spec() for k, d in self.dims.items()}
 
-    def check_names(self, valid: list[str], what: str = "the system") -> None:
-        """Refuse a name that is not in ``valid``, listing the close matches."""
+    def check_names(self, valid: list[str], what: str = "the system", shown: list[str] | None = None) -> None:
+        """Refuse a name that is not in ``valid``, listing the close matches among ``shown`` (the
+        public names; default ``valid``)."""
+        shown = valid if shown is None else shown
         for name in self.dims:
             if name not in valid:
-                close = difflib.get_close_matches(name, valid, n=5, cutoff=0.5)
-                hint = f" Close matches: {close}." if close else f" Valid names: {valid[:30]}{' ...' if len(valid) > 30 else ''}."
+                close = difflib.get_close_matches(name, shown, n=5, cutoff=0.5)
+                hint = f" Close matches: {close}." if close else f" Valid names: {shown[:30]}{' ...' if len(shown) > 30 else ''}."
                 raise ModelError(f"Study: parameter '{name}' is not a parameter of {what}.{hint}")
 
     def from_unit(self, u: np.ndarray) -> dict:

@@ -97,7 +97,8 @@ class Study:
         self.space = Space(space)
         self.apply = apply
         if not self.is_builder and apply is None:
-            self.space.check_names(system_or_builder.param_names(), f"model '{system_or_builder.topo.name}'")
+            self.space.check_names(system_or_builder.param_names(), f"model '{system_or_builder.topo.name}'",
+                                   shown=system_or_builder.public_param_names())
             for k, d in self.space.dims.items():
                 vals = d.values if isinstance(d, Choice) else ([d.value] if isinstance(d, Fixed) else [])
                 if any(isinstance(v, str) for v in vals):
