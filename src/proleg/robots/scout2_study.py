@@ -119,7 +119,9 @@ def calibrate_leg_friction(t_end, *, base, measured_sr=D.SR_ELECTRICAL, xtol=0.0
         row = point_row(r, "Model II, calibration", leg_mu=mu)
         if rows is not None:
             rows.append(row)
-        return {"electrical specific resistance at the nominal set point": row["SR electrical"]}
+        # a specific resistance is a property of a steady gait: none (period 0) gives no value
+        sr = row["SR electrical"] if row["period"] in (1, 2) else np.nan
+        return {"electrical specific resistance at the nominal set point": sr}
 
     cal = calibrate("leg_mu", predict, {"electrical specific resistance at the nominal set point": measured_sr}, RANGES["leg_mu"][0],
                     unit="-", xtol=xtol, history=history, source="scout2_data: dry plain-bearing friction coefficients; data seed 003 Fig. 7")
