@@ -56,5 +56,7 @@ def test_findings_report_a_fall_and_no_bound():
     s = summary()
     s["I"] = metrics(np.nan, np.nan, period=0, fell=True, strides=0)
     s["II_cal"] = metrics(np.nan, np.nan, period=0, strides=0)
+    s["II"] = metrics(0.367, 4.16, period=0)
     text = findings(s)
     assert "Model I falls" in text and "stops bounding" in text
+    assert "does not settle into a steady gait" in text and "0.367 m/s on average" in text

@@ -448,7 +448,10 @@ def _gait(name, m):
         return f"{name} falls."
     if m["strides"] == 0 or not np.isfinite(m["forward_speed"]):
         return f"{name} stops bounding (no steady stride)."
-    per = {1: "period one", 2: "period two"}.get(m["period"], "no steady period")
+    if m["period"] not in (1, 2):
+        return (f"{name} does not settle into a steady gait (period detector 0): it stalls and restarts, "
+                f"{m['forward_speed']:.3f} m/s on average over the late strides.")
+    per = {1: "period one", 2: "period two"}[m["period"]]
     return f"{name} bounds ({per}) at {m['forward_speed']:.3f} m/s, electrical specific resistance {m['specific_resistance_electrical']:.3g}."
 
 
