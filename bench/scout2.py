@@ -5,8 +5,9 @@ start (:class:`proleg.robots.scout2.Scout2Params`: the apex of the double flight
 cycle) twice in one process: the first call includes compilation, the second is the run alone.
 Columns: compile+run and run wall times [s], steps, Newton iterations, the steady forward
 speed, period (1 = period-one bound), stride frequency, and the specific resistances (Eq. 8).
-The scenario ``proleg run scout2-bound`` runs these plus the low-speed set points, the Table 6
-reading and the Table 5 sensitivity on the same two compiled systems.
+The scenario ``proleg run scout2-bound`` runs these plus the leg-friction calibration, the
+low-speed set-point search, the parameter ranges, the Table 6 reading and the Table 5
+sensitivity on the same two compiled systems.
 """
 
 from __future__ import annotations

@@ -97,6 +97,9 @@ def test_report_contains_every_figure_and_table(tmp_path):
     for col in ("peak hip force [N]", "settling time [s]", "peak GRF z [N]"):
         assert col.split(" [")[0] in html
     assert "seed 000 Table 2" in html and "MODEL_DATA §1" in html
+    # the model-generated reference is marked as such in a table, not only in prose (issue 31)
+    assert any(t.startswith("Reference data in this report") for t in tables)
+    assert "SYNTHETIC: model-generated, not measured" in html
     for f in ("drop.parquet", "summary.csv", "bench_drop.csv", "hierarchy.csv", "fig1.png", "fig9.png"):
         assert (tmp_path / f).exists(), f
     back = pd.read_parquet(tmp_path / "drop.parquet")

@@ -83,3 +83,23 @@ def test_state_dependent_force_makes_the_pattern_dense():
     system = pl.assemble(model)
     col = check(system)
     assert col.dense
+
+
+def test_slide_friction_couples_the_parts_loading_its_slider():
+    """SlideFriction's normal load reads every load on the sliding part (toe contact, spring):
+    its pattern must couple the joint's parts with the parts those elements touch."""
+    m = pl.Model("telescope", gravity=(0, 0, -9.81))
+    up = m.add_part("upper", mass=1.0, inertia=(0.01,) * 3, position=(0, 0, 0.4))
+    lo = m.add_part("lower", mass=0.3, inertia=(0.003,) * 3, position=(0.05, 0, 0.2))
+    other = m.add_part("other", mass=1.0, inertia=(0.01,) * 3, position=(1.0, 0, 0.5))
+    ax = np.array([0.2, 0.0, -1.0]) / np.linalg.norm([0.2, 0.0, -1.0])
+    m.add_joint(pl.Revolute("hip", up, m.ground, at=(0, 0, 0.5), axis=(0, 1, 0)))
+    leg = m.add_joint(pl.Prismatic("leg", lo, up, at=(0, 0, 0.5), axis=ax))
+    m.add_joint(pl.Revolute("other_pin", other, m.ground, at=(1.0, 0, 0.6), axis=(0, 1, 0)))
+    toe = m.add_marker(lo, "toe", np.array([0, 0, 0.5]) + 0.45 * ax)
+    top = m.add_marker(up, "top", (0, 0, 0.5))
+    m.add_force(pl.SpringDamper("spring", toe, top, stiffness=2000.0, damping=10.0, free_length=0.45))
+    m.add_contact(pl.SphereContact("toe_contact", toe, radius=0.02, stiffness=1e5, damping=100.0, mu_static=0.8, mu_dynamic=0.6))
+    m.add_force(pl.SlideFriction("leg_friction", leg, mu_static=0.3, mu_dynamic=0.2, overlap=0.05, bearing_offset=0.2))
+    col = check(pl.assemble(m))
+    assert not col.dense

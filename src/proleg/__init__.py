@@ -159,6 +159,7 @@ from .model.control import Battery as Battery
 from .model.couplers import Coupler as Coupler
 from .model.couplers import JointStop as JointStop
 from .model.couplers import JointFriction as JointFriction
+from .model.friction import SlideFriction as SlideFriction
 from .model.forces import RotationalBacklash as RotationalBacklash
 from .model.flexible import FlexibleBody as FlexibleBody
 

@@ -416,6 +416,11 @@ def build_extensions(model, topo, marker_index, params):
         elems = [f for f in model.forces if getattr(f, "kind", "") == kind]
         if elems:
             groups.append(gcls(elems, marker_index, nm))
+    slides = [f for f in model.forces if getattr(f, "kind", "") == "slide_friction"]
+    if slides:  # last: its normal load re-evaluates the groups above on the sliding parts
+        from .friction_elements import SlideFrictionGroup
+
+        groups.append(SlideFrictionGroup(slides, marker_index, nm, model, topo.marker_body))
     for g in groups:
         if len(g):
             params.update(g.params())

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from .dcmotor import DCMotorDrive, _leg_torque_per_amp
+from .dcmotor import DCMotorDrive, _current
 
 __all__ = ["shared_supply", "FIXED_POINT_PASSES"]
 
@@ -74,7 +74,7 @@ def shared_supply(drives: list[DCMotorDrive], tau_cmd, leg_speed, V_nom, R_s):
 
 
     tau_cmd, leg_speed = jnp.asarray(tau_cmd, jnp.float64), jnp.asarray(leg_speed, jnp.float64)
-    i_cmd = jnp.stack([tau_cmd[k] / _leg_torque_per_amp(d, tau_cmd[k], leg_speed[k]) for k, d in enumerate(drives)])
+    i_cmd = jnp.stack([_current(d, tau_cmd[k], leg_speed[k]) for k, d in enumerate(drives)])
     w_m = jnp.stack([d.beta * leg_speed[k] for k, d in enumerate(drives)])
     V = jnp.asarray(V_nom, jnp.float64)
     for _ in range(FIXED_POINT_PASSES):

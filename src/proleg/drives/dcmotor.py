@@ -82,6 +82,21 @@ class DCMotorDrive:
         "43 A/V", read as 4.3 A/V; irrelevant when a torque (current) is commanded.
     V_nom : float [V]          battery open-circuit voltage, 37.17 (Eq. 9, least-squares fit)
     R_s : float [Ω]            battery series resistance, 0.13 (Eq. 9)
+    gear_drag : float [N m]    no-load (Coulomb) drag of motor and gearbox at the motor shaft,
+        default 0 (the paper's constant-efficiency drive). With it the efficiency depends on
+        the load: see :meth:`efficiency_at`.
+    gear_viscous : float [N m s/rad]  speed-proportional drag at the motor shaft (churning,
+        seals), default 0: the efficiency then falls with speed.
+    drag_speed : float [rad/s]  motor speed over which the Coulomb drag is smoothed (tanh), 1.0
+
+    Transmission law (Pelchen, Schweiger & Otter 2002, "Modeling and simulating the efficiency
+    of gearboxes and of planetary gearboxes", the form of Modelica's LossyGear and of Adams
+    Machinery's gear efficiency): the drag τ_d(ω_m) = gear_drag tanh(ω_m / drag_speed) +
+    gear_viscous ω_m is taken off the motor torque K_T i before the mesh; the mesh torque
+    τ_g = K_T i − τ_d then reaches the leg as β η τ_g when power flows to the leg
+    (τ_g ω_m ≥ 0) and as (β / η) τ_g when the leg back-drives the motor, η = η_g η_p.
+    The effective efficiency τ φ̇ / (K_T i ω_m) = η (1 − τ_d / K_T i) (forward) grows with the
+    load towards η (the catalogue's "maximum efficiency", seed 003 §5.3) and falls with speed.
     """
 
     K_T: float = 0.0389
@@ -96,6 +111,23 @@ class DCMotorDrive:
     k_amp: float = 4.3
     V_nom: float = 37.17
     R_s: float = 0.13
+    gear_drag: float = 0.0
+    gear_viscous: float = 0.0
+    drag_speed: float = 1.0
+
+    def drag_torque(self, motor_speed):
+        """τ_d(ω_m) [N m]: no-load drag at the motor shaft (see the class docstring)."""
+        return self.gear_drag * jnp.tanh(motor_speed / self.drag_speed) + self.gear_viscous * motor_speed
+
+    def efficiency_at(self, motor_torque, motor_speed):
+        """Effective transmission efficiency [-] at motor torque K_T i [N m] and speed ω_m [rad/s]:
+        leg power over motor shaft power when the motor drives (η (1 − τ_d/τ_m)); shaft power
+        over leg power when the leg drives the motor. Depends on load, speed and power flow."""
+        tau_g = motor_torque - self.drag_torque(motor_speed)
+        fwd = tau_g * motor_speed >= 0.0
+        p_leg = jnp.where(fwd, self.efficiency * tau_g, tau_g / self.efficiency) * motor_speed
+        p_shaft = motor_torque * motor_speed
+        return jnp.where(fwd, p_leg / p_shaft, p_shaft / p_leg)
 
     @property
     def alpha(self):
@@ -145,10 +177,20 @@ def _source(drive: DCMotorDrive, battery: bool):
     return drive.V_supply, 0.0
 
 
-def _leg_torque_per_amp(drive: DCMotorDrive, current, leg_speed):
-    """Leg torque per motor current [N m/A]: α K_T motoring (i φ̇ ≥ 0), (β²/α) K_T back-driven."""
-    motoring = current * leg_speed >= 0.0
-    return drive.K_T * jnp.where(motoring, drive.alpha, drive.beta**2 / drive.alpha)
+def _leg_torque(drive: DCMotorDrive, current, leg_speed):
+    """Leg torque [N m] for a motor current: β η τ_g motoring (τ_g φ̇ ≥ 0), (β / η) τ_g
+    back-driven, with the mesh torque τ_g = K_T i − τ_d(β φ̇) (no drag: α K_T i, (β²/α) K_T i)."""
+    tau_g = drive.K_T * current - drive.drag_torque(drive.beta * leg_speed)
+    motoring = tau_g * leg_speed >= 0.0
+    return tau_g * jnp.where(motoring, drive.alpha, drive.beta**2 / drive.alpha)
+
+
+def _current(drive: DCMotorDrive, tau, leg_speed):
+    """Motor current [A] that delivers leg torque τ (inverse of :func:`_leg_torque`: the map is
+    monotone, and the mesh torque has the sign of τ)."""
+    motoring = tau * leg_speed >= 0.0
+    tau_g = tau / jnp.where(motoring, drive.alpha, drive.beta**2 / drive.alpha)
+    return (tau_g + drive.drag_torque(drive.beta * leg_speed)) / drive.K_T
 
 
 def torque_speed_line(drive: DCMotorDrive, leg_speed, V=None):
@@ -206,8 +248,8 @@ def torque_speed_limits(drive: DCMotorDrive, leg_speed, V=None, battery=False):
         V_src = V
     w_m = drive.beta * leg_speed
     i_lo, i_hi = _current_limits(drive, w_m, V_src, R_src)
-    tau_lo = _leg_torque_per_amp(drive, i_lo, leg_speed) * i_lo
-    tau_hi = _leg_torque_per_amp(drive, i_hi, leg_speed) * i_hi
+    tau_lo = _leg_torque(drive, i_lo, leg_speed)
+    tau_hi = _leg_torque(drive, i_hi, leg_speed)
     return tau_lo, tau_hi
 
 
@@ -259,7 +301,7 @@ def delivered_torque(drive: DCMotorDrive, tau_command, leg_speed, battery=True, 
     w_m = drive.beta * leg_speed
     tau_lo, tau_hi = torque_speed_limits(drive, leg_speed, V=V, battery=battery)
     tau = jnp.clip(tau_command, tau_lo, tau_hi)
-    i = tau / _leg_torque_per_amp(drive, tau, leg_speed)
+    i = _current(drive, tau, leg_speed)
     v_t = drive.R_a * i + drive.K_omega * w_m
     p_el = v_t * i
     if battery:

@@ -119,9 +119,9 @@ class Model:
                 raise ModelError(f"{who}: joint '{j.name}' has no rotational degree of freedom about its axis.")
             element.joint = j
             element.i, element.j = j.marker_i, j.marker_j
-        from .couplers import JointFriction, JointStop
+        from .couplers import _JointForce
 
-        if isinstance(element, JointStop | JointFriction):
+        if isinstance(element, _JointForce):  # JointStop, JointFriction, SlideFriction
             j = element.joint if isinstance(element.joint, AbstractJoint) else self.joint(element.joint)
             if not any(x is j for x in self.joints):
                 raise ModelError(f"{who}: joint '{j.name}' is not in model '{self.name}'. Add it with model.add_joint first.")

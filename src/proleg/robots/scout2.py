@@ -25,7 +25,16 @@
   β = n_g n_p = 102.2 between them (the gear constraint), the drive on the drive-gear joint
   (``motor_side``: the motor speed is the drive gear's), joint stiction and damping on the hip
   (``JointFriction``), and the belt + backlash as a ``RotationalSpringDamper`` between driven
-  gear and leg (7.0 N m/deg: 7.4° at the 51.9 N m full torque of one motor).
+  gear and leg (7.0 N m/deg: 7.4° at the 51.9 N m full torque of one motor). Model II also
+  carries the dissipation the paper blames but does not model (§5.2–5.3): stick–slip friction
+  in each telescopic leg growing with the leg's side load (``SlideFriction``: the toe's ground
+  reaction normal to the leg and its bending moment over the bushing overlap) and a gearbox
+  drag that makes the transmission efficiency depend on load, speed and the direction of power
+  flow (``DCMotorDrive.gear_drag``/``gear_viscous``). Their values are estimates with ranges
+  (scout2_data); the report calibrates the leg friction on one specific resistance.
+
+Initial condition (both models): at rest in the standing posture, legs vertical, released a
+few centimetres above touching; the controller must bring the robot into the bound.
 
 The controller (§3.1, Table 4) is a :class:`proleg.StateMachine` per virtual leg at 1 kHz, see
 :func:`bounding_controller`. Every number is a keyword argument (names in
@@ -47,6 +56,7 @@ from ..model.contacts import SphereContact
 from ..model.control import Battery, JointActuator, StateMachine
 from ..model.couplers import Coupler, JointFriction, JointStop
 from ..model.forces import RotationalSpringDamper, SpringDamper
+from ..model.friction import SlideFriction
 from ..model.joints import Planar, Prismatic, Revolute
 from ..model.model import Model
 from ..units import deg
@@ -68,7 +78,7 @@ class Scout2Params:
     leg_mass: float = D.LEG_MASS
     leg_inertia: float = D.LEG_INERTIA
     leg_stiffness: float = D.LEG_STIFFNESS
-    leg_damping: float = D.LEG_DAMPING / 2  # per physical leg: Table 6's 55 N s/m read per virtual leg (scout2_data)
+    leg_damping: float = D.LEG_DAMPING  # N s/m per physical leg, Table 6 as printed
     half_hip_spacing: float = D.HIP_SEPARATION / 2
     leg_length: float = D.LEG_LENGTH
     lower_mass_fraction: float = 0.3
@@ -109,13 +119,23 @@ class Scout2Params:
     belt_stiffness: float = D.BELT_STIFFNESS
     belt_damping: float = D.BELT_DAMPING
     angle_sensor: str = "motor"  # Model II: leg angle from the motor encoder ("motor") or at the leg ("leg")
-    # initial condition: flight (both toes off the ground), legs at rest relative to the body;
-    # the default is the apex of the double-flight phase on Model I's bounding cycle (bench/scout2.py)
-    height: float = 0.344  # m, body COM above ground at t = 0
-    speed: float = 1.5  # m/s forward
+    # Model II dissipation the paper blames but does not model (§5.2, §5.3; ranges in scout2_data)
+    leg_mu: float = D.LEG_MU  # sliding friction coefficient of the telescopic leg's bushings
+    leg_mu_static_ratio: float = D.LEG_MU_STATIC_RATIO  # μ_s / μ_d
+    leg_overlap: float = D.LEG_OVERLAP  # m, bushing overlap (bending moment arm)
+    leg_bearing: float = D.LEG_BEARING  # m, bushing centre below the hip
+    leg_v_stiction: float = 1e-3  # m/s
+    leg_v_friction: float = 5e-3  # m/s
+    gear_drag: float = D.GEAR_DRAG  # N m at the motor shaft, per motor
+    gear_viscous: float = D.GEAR_VISCOUS  # N m s/rad at the motor shaft, per motor
+    # initial condition: at rest in the standing posture (legs vertical, no speed, no pitch),
+    # released ``drop`` above the height where the toes touch; the controller starts in flight
+    # and brings the robot into the bound (the same start for both models)
+    height: float = D.LEG_LENGTH + 0.02 + 0.03  # m, body COM above ground at t = 0 (toe radius + 3 cm drop)
+    speed: float = 0.0  # m/s forward
     pitch: float = 0.0  # rad, nose-up positive
-    pitch_rate: float = 2.16  # rad/s, nose-up positive
-    leg_angle_back: float = D.TOUCHDOWN_BACK  # rad, leg angles relative to the body at t = 0
+    pitch_rate: float = 0.0  # rad/s, nose-up positive
+    leg_angle_back: float = 0.0  # rad, leg angles relative to the body at t = 0
     leg_angle_front: float = 0.0
 
 
@@ -145,7 +165,8 @@ def _check(p: Scout2Params, variant, per):
         v = getattr(p, name)
         if not np.isfinite(v) or v <= 0:
             raise ModelError(f"scout2: {name} must be positive and finite, got {v!r}.")
-    for name in ("leg_damping", "R_s", "mu", "joint_stiction", "joint_damping", "belt_damping", "drive_gear_inertia", "driven_gear_inertia", "belt_stiffness"):
+    for name in ("leg_damping", "R_s", "mu", "joint_stiction", "joint_damping", "belt_damping", "drive_gear_inertia", "driven_gear_inertia", "belt_stiffness",
+                 "leg_mu", "gear_drag", "gear_viscous"):
         v = getattr(p, name)
         if not np.isfinite(v) or v < 0:
             raise ModelError(f"scout2: {name} must be non-negative, got {v!r}.")
@@ -168,11 +189,14 @@ def _check(p: Scout2Params, variant, per):
         raise ModelError(f"scout2: angle_sensor must be 'motor' or 'leg', got {p.angle_sensor!r}.")
 
 
-def virtual_drive(p: Scout2Params) -> DCMotorDrive:
+def virtual_drive(p: Scout2Params, losses: bool = False) -> DCMotorDrive:
     """The equivalent virtual motor of ``motors_per_leg`` motors in parallel (same speed):
-    K_T and K_ω unchanged, R_a / n, i_max · n, so torque and current scale by n (scout2_data)."""
+    K_T and K_ω unchanged, R_a / n, i_max · n, so torque and current scale by n (scout2_data).
+    ``losses``: with the load- and speed-dependent gearbox drag of Model II (``gear_drag``,
+    ``gear_viscous`` per motor, n of them); otherwise the paper's constant efficiency."""
     n = p.motors_per_leg
-    return dataclasses.replace(p.drive, R_a=p.drive.R_a / n, i_max=p.drive.i_max * n, V_nom=p.V_nom, R_s=p.R_s)
+    return dataclasses.replace(p.drive, R_a=p.drive.R_a / n, i_max=p.drive.i_max * n, V_nom=p.V_nom, R_s=p.R_s,
+                               gear_drag=p.gear_drag * n if losses else 0.0, gear_viscous=p.gear_viscous * n if losses else 0.0)
 
 
 def scout2(model: str = "I", *, per: str = "physical", **params) -> Model:
@@ -196,7 +220,7 @@ def scout2(model: str = "I", *, per: str = "physical", **params) -> Model:
     _check(p, model, per)
     n_leg = 2.0 if per == "physical" else 1.0  # physical legs per virtual leg for Table 6 values
     n_mot = float(p.motors_per_leg)  # Table 4/5 values are per physical leg in both readings
-    drive = virtual_drive(p)
+    drive = virtual_drive(p, losses=model == "II")
 
     mdl = Model(f"scout2_model_{model}", gravity=(0.0, 0.0, -9.81))
     # Table 4 gains are per physical leg: the virtual leg's are n_mot times (two legs in parallel).
@@ -259,6 +283,11 @@ def scout2(model: str = "I", *, per: str = "physical", **params) -> Model:
             mdl.add_force(RotationalSpringDamper(f"{leg}_belt", bi, bj, stiffness=p.belt_stiffness * n_mot, damping=p.belt_damping * n_mot))
             mdl.add_force(JointFriction(f"{leg}_hip_friction", hj, friction=p.joint_stiction * n_mot, damping=p.joint_damping * n_mot))
             act = JointActuator(f"{leg}_motor", dj, drive=drive, battery=battery, motor_side=True)
+            if p.leg_mu > 0:
+                mdl.add_force(SlideFriction(
+                    f"{leg}_leg_friction", lj, mu_static=p.leg_mu * p.leg_mu_static_ratio, mu_dynamic=p.leg_mu,
+                    v_stiction=p.leg_v_stiction, v_friction=p.leg_v_friction, overlap=p.leg_overlap, bearing_offset=p.leg_bearing,
+                ))
             if p.angle_sensor == "motor":
                 angles[leg] = nj.name
         mdl.add_actuator(act)
@@ -412,9 +441,13 @@ def _parameter_table(p: Scout2Params, variant, per, drive):
             ("belt spring", p.belt_stiffness, "N m/rad", "Table 5 (7.0 N m/deg)"),
             ("belt damper", p.belt_damping, "N m s/rad", "Table 5, 4.0e-2 N m s/deg interpreted"),
             ("leg angle sensor", p.angle_sensor, "-", "§3.1: motor encoders"),
+            ("leg bushing friction μ_d (μ_s / μ_d)", f"{p.leg_mu:g} ({p.leg_mu_static_ratio:g})", "-", "estimate, range 0.03–0.3 (scout2_data); calibrated in the report"),
+            ("leg bushing overlap / centre below hip", f"{p.leg_overlap:g} / {p.leg_bearing:g}", "m", "estimate, ranges in scout2_data"),
+            ("leg stiction / sliding transition speeds", f"{p.leg_v_stiction:g} / {p.leg_v_friction:g}", "m/s", "regularisation (Adams FRICTION)"),
+            ("gear drag, Coulomb / viscous (per motor, motor shaft)", f"{p.gear_drag:g} / {p.gear_viscous:g}", "N m, N m s/rad", "estimate, ranges in scout2_data"),
         ]
     rows += [
-        ("initial height / speed", f"{p.height} / {p.speed}", "m, m/s", "chosen (flight, legs at 0°)"),
-        ("initial pitch / pitch rate", f"{p.pitch / deg:g} / {p.pitch_rate:g}", "deg, rad/s", "chosen"),
+        ("initial height / speed", f"{p.height:g} / {p.speed:g}", "m, m/s", "standing posture released from a small drop (same for both models)"),
+        ("initial pitch / pitch rate", f"{p.pitch / deg:g} / {p.pitch_rate:g}", "deg, rad/s", "at rest"),
     ]
     return rows

@@ -19,13 +19,11 @@ the torque). Three facts support it:
   single-stance leg by 69 mm (21 % of 0.323 m) and the dynamic stance load ~2–3 times that;
   per physical leg it is half.
 
-The leg *damping* is the exception: Table 6's 55 N s/m is read as the virtual leg's (27.5 N s/m
-per physical leg). Read per physical leg (110 N s/m per virtual leg, damping ratio ≈ 0.2 in
-stance) the legs lose so much of each bounce that Model I does not settle into a bound from
-the nominal start; at 55 N s/m per virtual leg it bounds period-one (measured in
-bench/scout2.py and shown in the report). The damping of the real telescopic legs is mostly
-friction (§5.2 blames "stiction and nonlinear damping ... inherent in the telescopic leg
-design"), which a viscous constant only approximates.
+The leg damping is read the same way, as printed (55 N s/m per physical leg, 110 N s/m per
+virtual leg); an earlier version halved it because Model I did not bound from its own limit
+cycle otherwise, a choice that favoured one model (issue 31). The damping of the real telescopic
+legs is partly friction (§5.2 blames "stiction and nonlinear damping ... inherent in the
+telescopic leg design"), which Model II now carries as a separate element (below).
 
 The report shows what the other reading (``per="virtual"``: Table 6 values for the whole
 virtual leg) changes. The body mass and inertia are the whole body's either way.
@@ -76,6 +74,33 @@ BELT_STIFFNESS = 7.0 / deg  # N m/rad (7.0 N m/deg; 51.9 N m → 7.4°, the "≈
 # the belt with the leg (c_crit = 2 √(k J) ≈ 8.5 N m s/rad); 4.0 N m s/deg would be 27 × c_crit
 # (the belt a rigid dashpot), 4.0e-3 an undamped belt ringing at ≈ 15 Hz.
 BELT_DAMPING = 4.0e-2 / deg  # N m s/rad, interpreted
+
+# Model II dissipation the paper names but does not model (§5.2, §5.3) -------------------------
+# Not printed in seed 003: engineering estimates with the ranges the report sweeps.
+# Telescopic leg: the lower tube slides in bushings in the upper leg. Dry-running plain bearings
+# (polymer or PTFE-lined bushings on an aluminium or steel tube) have sliding friction
+# coefficients of about 0.05–0.25 (handbook ranges for dry polymer bearings; PTFE ≈ 0.05–0.1,
+# filled polymers 0.1–0.25); static friction 1.0–1.5 times that. The bushing overlap and
+# position are not given: the lower leg (≈ 0.2 m of travel region below the spring housing)
+# is read as sliding in an overlap of 0.04–0.15 m centred 0.15–0.25 m below the hip.
+# LEG_MU is the value calibrated on one speed's specific resistance (scout2_calibrate); the
+# nominal here is the middle of the range, used before calibration.
+LEG_MU = 0.12  # -, range (0.03, 0.3)
+LEG_MU_RANGE = (0.03, 0.3)
+LEG_MU_STATIC_RATIO = 1.3  # -, range (1.0, 1.5)
+LEG_OVERLAP = 0.08  # m, range (0.04, 0.15)
+LEG_OVERLAP_RANGE = (0.04, 0.15)
+LEG_BEARING = 0.2  # m below the hip, range (0.15, 0.25)
+# Gearbox and motor no-load drag at the motor shaft (per motor). The motor's own friction torque
+# is K_T times its no-load current (tens of mA for a motor of this size: a few mN m); a
+# three-stage planetary adds its churning and seal drag. Range 0–20 mN m Coulomb and
+# 0–5e-5 N m s/rad viscous (5 mN m at 100 rad/s more at the motor's ≈ 700 rad/s no-load speed).
+# The seed says only that the efficiency "varies dramatically as a function of speed and torque"
+# (§5.3, after Maxon Motors 1997) and that 68 % is the maximum.
+GEAR_DRAG = 0.005  # N m, range (0, 0.02)
+GEAR_DRAG_RANGE = (0.0, 0.02)
+GEAR_VISCOUS = 1e-5  # N m s/rad, range (0, 5e-5)
+GEAR_VISCOUS_RANGE = (0.0, 5e-5)
 
 # Paper results to compare with (§5.2, Fig. 7, Fig. 16) ----------------------------------------
 SPEED_MEASURED = 1.286  # m/s, ± 0.04 (10 runs on carpet)

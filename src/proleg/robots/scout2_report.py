@@ -1,9 +1,12 @@
-"""The ``scout2-bound`` scenario: Model I and Model II bounding, the low-speed runs, the reading
-of Table 6, the Table 5 sensitivity, a self-contained HTML report and Parquet (seed 003).
+"""The ``scout2-bound`` scenario: Model I and Model II from the same standing start, the leg-friction
+calibration kept apart from validation, the low-speed set points found for a commanded speed,
+the finding across the unknown parameters' ranges, the Table 6 readings, the Table 5
+sensitivity, the Fig. 7 analogue, a self-contained HTML report and Parquet (seed 003, issue 31).
 
-Everything runs on two compiled systems (Model I, Model II): the variants (low-speed set points,
-Table 6 read per virtual leg, Table 5 values) change parameters only, so they reuse them
-(:func:`variant_system`).
+Everything runs on two compiled systems (Model I, Model II): the variants change parameters
+only, so they reuse them (:func:`proleg.robots.scout2_study.variant_system`). The findings prose
+is written by :func:`findings` from the run's numbers; the paper's values enter only as cited
+references (scout2_data).
 """
 
 from __future__ import annotations
@@ -14,21 +17,21 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..assembly.assemble import assemble
-from ..assembly.system import System
 from ..units import deg
 from . import scout2_data as D
-from .scout2 import LEG_STATES, LEGS, scout2
+from .scout2 import LEGS
 from .scout2_bound import BoundRun, energy_balance, pitch_deg, scout2_bound
+from . import scout2_study as S
+from .scout2_study import variant_system
 
-__all__ = ["run_bound", "variant_system", "bound_figures", "LOW_SPEED_SETPOINTS", "NOMINAL_START"]
+__all__ = ["run_bound", "variant_system", "bound_figures", "findings", "NOMINAL_START", "LOW_SPEED_TARGET"]
 
 # Initial condition of every run: the builder's (Scout2Params: the apex of the double flight on
 # Model I's bounding cycle); documented in the report. Override fields here to change it.
 NOMINAL_START: dict = {}
-# Set points for the low-speed runs (seed 003 §5.3: "at 0.8 m/s"): smaller touchdown angles
-# shorten the stride; chosen to give ≈ 0.8 m/s with Model II.
-LOW_SPEED_SETPOINTS = {"touchdown_front": 15.0 * deg, "touchdown_back": 13.0 * deg}
+# Commanded low speed (seed 003 §3.3 and §5.3: the robot's low-speed point, 0.85 m/s in Fig. 7);
+# the set points for it are found by bisection for each model (scout2_study.setpoint_for_speed).
+LOW_SPEED_TARGET = D.SR_LOW_SPEED[0]
 METRIC_LABELS = {
     "forward_speed": "forward speed [m/s]",
     "stride_frequency": "stride frequency [Hz]",
@@ -43,18 +46,6 @@ METRIC_LABELS = {
     "period": "period (1, 2; 0 = none)",
     "strides": "steady strides",
 }
-
-
-def variant_system(base: System, model: str, **params) -> System:
-    """The system of ``scout2(model, **params)`` on ``base``'s compiled topology.
-
-    Valid when the variant changes numbers only (masses, stiffnesses, gear inertias, the
-    initial condition): its parameter arrays replace ``base``'s, so nothing recompiles.
-    """
-    other = assemble(scout2(model, **params))
-    if set(other.params) != set(base.params) or any(np.shape(other.params[k]) != np.shape(base.params[k]) for k in base.params):
-        return other
-    return System(dict(other.params), base.topo)
 
 
 def _stride_window(run: BoundRun):
@@ -166,27 +157,6 @@ def bound_figures(runs: dict[str, BoundRun]):
     return figs
 
 
-SENSITIVITY = (("drive_gear_inertia", "drive gear inertia"), ("driven_gear_inertia", "driven gear inertia"),
-               ("joint_damping", "joint damping"), ("belt_damping", "belt damper"))
-
-
-def sensitivity_rows(t_end: float = 5.0, factors=(0.1, 10.0)) -> list[dict]:
-    """Model II forward speed with each garbled Table 5 value scaled by ``factors`` (one
-    compiled system; runs of ``t_end`` s, steady after t_end / 2)."""
-    base = scout2_bound("II", t_end, transient=t_end / 2, **NOMINAL_START)
-    v0 = base.metrics["forward_speed"]
-    rows = []
-    for pname, label in SENSITIVITY:
-        nominal = getattr(base.info.params, pname)
-        for f in factors:
-            kw = {pname: nominal * f, **NOMINAL_START}
-            r = scout2_bound("II", t_end, system=variant_system(base.system, "II", **kw), transient=t_end / 2, **kw)
-            v = r.metrics["forward_speed"]
-            rows.append({"parameter": label, "factor": f, "value": nominal * f, "forward speed [m/s]": v, "period": r.metrics["period"],
-                         "fell": r.metrics["fell"], "speed change [%]": 100 * (v / v0 - 1)})
-    return rows
-
-
 def _metrics_table(runs: dict[str, BoundRun]) -> pd.DataFrame:
     rows = []
     for key, label in METRIC_LABELS.items():
@@ -217,11 +187,18 @@ def _fig16(runs):
     return fig
 
 
-def run_bound(out_dir, *, t_end: float = 10.0, low_speed: bool = True, sensitivity: bool = True, progress=None) -> Path:
+def run_bound(out_dir, *, t_end: float = 6.0, low_speed: bool = True, sensitivity: bool = True, calibrate: bool = True,
+              ranges: bool | tuple = True, table6: bool = True, progress=None) -> Path:
     """Run the scenario and write ``scout2_bound_report.html`` + Parquet into ``out_dir``.
 
-    ``progress``: None prints each stage with the elapsed time to stderr; False is silent; or a
-    callable taking a message."""
+    Both models start from standing (NOMINAL_START over Scout2Params). Stages, each optional:
+    the nominal runs; ``calibrate``: Model II's leg friction fitted on the electrical specific
+    resistance at the nominal set point only (then used by every later Model II run);
+    ``low_speed``: for each model the set point that gives LOW_SPEED_TARGET by bisection;
+    ``ranges``: Model II at the ends of each unknown parameter's range (True: all of
+    scout2_study.RANGES, or a tuple of their names); ``sensitivity``: the
+    Table 5 interpretations; ``table6``: the per-virtual-leg reading. Every run is a point of
+    the Fig. 7 analogue. ``progress``: None prints stages to stderr, False is silent."""
     from ..report.html import Report
 
     out = Path(out_dir)
@@ -234,128 +211,278 @@ def run_bound(out_dir, *, t_end: float = 10.0, low_speed: bool = True, sensitivi
             print(f"[{time.perf_counter() - wall0:6.1f} s] {msg}", file=sys.stderr, flush=True)
 
     log = progress or (lambda msg: None)
+    points: list[dict] = []
+    runs = {}
+    for model in ("I", "II"):
+        log(f"Model {model}: compiling and running {t_end:g} s from standing")
+        runs[f"Model {model}"] = scout2_bound(model, t_end, transient=t_end / 2, **NOMINAL_START)
+        points.append(S.point_row(runs[f"Model {model}"], f"Model {model}, nominal"))
+    base = {m: runs[f"Model {m}"] for m in ("I", "II")}
+    cal, cal_hist, cal_err = None, [], None
+    mu_kw = {}
+    if calibrate:
+        log("Model II: calibrating the leg friction on one specific resistance")
+        from ..errors import ConvergenceError
+
+        try:
+            cal, cal_runs = S.calibrate_leg_friction(t_end, base=base["II"], rows=points, history=cal_hist, **NOMINAL_START)
+            mu_kw = {"leg_mu": cal.value}
+            runs["Model II, calibrated"] = cal_runs[min(cal_runs, key=lambda m: abs(m - cal.value))]
+        except ConvergenceError as e:
+            cal_err = str(e)
+    extra = {}
+    targets = {}
+    if low_speed:
+        from ..errors import ConvergenceError
+
+        for model in ("I", "II"):
+            log(f"Model {model}: set point for {LOW_SPEED_TARGET:g} m/s (bisection)")
+            kw = {**NOMINAL_START, **(mu_kw if model == "II" else {})}
+            try:
+                delta, run = S.setpoint_for_speed(model, LOW_SPEED_TARGET, t_end, base=base[model], rows=points, **kw)
+                extra[f"Model {model}, low speed"] = run
+                targets[model] = delta
+            except ConvergenceError as e:
+                targets[model] = str(e)
+    range_tab = []
+    if ranges:
+        log("Model II: ends of the unknown parameters' ranges")
+        names = tuple(S.RANGES) if ranges is True else tuple(ranges)
+        range_tab = S.range_rows(t_end, base=base["II"], names=names, rows=points, **{**NOMINAL_START, **mu_kw})
     sens = []
     if sensitivity:
-        # The sensitivity runs go to a second process (spawned: JAX does not survive fork), on
-        # the machine's other core, while this one runs the models for the figures.
-        import concurrent.futures as cf
-        import multiprocessing as mp
-
-        pool = cf.ProcessPoolExecutor(max_workers=1, mp_context=mp.get_context("spawn"))
-        fut = pool.submit(sensitivity_rows, min(t_end, 5.0))
-    else:
-        fut = None
-    runs, systems = {}, {}
-    for model in ("I", "II"):
-        log(f"Model {model}: compiling and running {t_end:g} s")
-        run = scout2_bound(model, t_end, **NOMINAL_START)
-        runs[f"Model {model}"], systems[model] = run, run.system
-    extra = {}
-    if low_speed:
-        for model in ("I", "II"):
-            log(f"Model {model}: low-speed set points")
-            extra[f"Model {model}, low speed"] = scout2_bound(model, t_end, system=systems[model], variables=LOW_SPEED_SETPOINTS, **NOMINAL_START)
+        log("Model II: Table 5 interpretations ×0.1, ×10")
+        sens = sensitivity_rows(t_end, base["II"], rows=points, **mu_kw)
     per_runs = {}
-    for model in ("I", "II"):
-        log(f"Model {model}: Table 6 read per virtual leg")
-        sv = variant_system(systems[model], model, per="virtual", **NOMINAL_START)
-        per_runs[f"Model {model}, per virtual leg"] = scout2_bound(model, min(t_end, 6.0), system=sv, per="virtual", **NOMINAL_START)
-    log("Model I: Table 6 leg damping read per physical leg")
-    kw = dict(leg_damping=D.LEG_DAMPING, **NOMINAL_START)
-    per_runs["Model I, damping per physical leg"] = scout2_bound("I", min(t_end, 6.0), system=variant_system(systems["I"], "I", **kw), **kw)
-    if fut is not None:
-        log("Model II sensitivity: waiting for the second process")
-        sens = fut.result()
-        pool.shutdown()
+    if table6:
+        for model in ("I", "II"):
+            log(f"Model {model}: Table 6 read per virtual leg")
+            kw = {**NOMINAL_START, **(mu_kw if model == "II" else {})}
+            sv = variant_system(base[model].system, model, per="virtual", **kw)
+            per_runs[f"Model {model}, per virtual leg"] = r = scout2_bound(model, t_end, system=sv, per="virtual", transient=t_end / 2, **kw)
+            points.append(S.point_row(r, f"Model {model}, Table 6 per virtual leg"))
+        for model in ("I", "II"):
+            log(f"Model {model}: leg damping read per virtual leg, the rest per physical leg (the earlier mixed reading)")
+            kw = {**NOMINAL_START, **(mu_kw if model == "II" else {}), "leg_damping": D.LEG_DAMPING / 2}
+            sv = variant_system(base[model].system, model, **kw)
+            per_runs[f"Model {model}, damping halved"] = r = scout2_bound(model, t_end, system=sv, transient=t_end / 2, **kw)
+            points.append(S.point_row(r, f"Model {model}, leg damping halved"))
+    all_runs = {**runs, **extra, **per_runs}
     # data
     frames = []
-    for name, run in {**runs, **extra, **per_runs}.items():
+    for name, run in all_runs.items():
         st = run.strides.copy()
         st.insert(0, "run", name)
         frames.append(st)
     pd.concat(frames, ignore_index=True).to_parquet(out / "strides.parquet")
     for model in ("I", "II"):
         runs[f"Model {model}"].result.to_parquet(out / f"model_{model}.parquet")
-    metrics = pd.DataFrame({name: run.metrics for name, run in {**runs, **extra, **per_runs}.items()}).T
+    pts = pd.DataFrame(points)
+    pts.to_parquet(out / "fig7_points.parquet")
+    metrics = pd.DataFrame({name: run.metrics for name, run in all_runs.items()}).T
     metrics.index.name = "run"
     metrics.astype(str).to_parquet(out / "metrics.parquet")
+    # calibration and validation tables
+    m2c = runs.get("Model II, calibrated", runs["Model II"]).metrics
+    cal_rows, pred_rows = _calibration_tables(cal, cal_err, runs, extra, m2c)
     # report
     rep = Report("Scout II bounding: Model I vs Model II", "seed 003 (Poulakakis, Smith, Buehler 2005), proleg.robots.scout2")
     rep.add_heading("What was simulated")
-    p = runs["Model I"].info.params
+    p = runs["Model II"].info.params
     rep.add_text(
         f"The planar Scout II model of seed 003 (body, two virtual legs with compliant prismatic legs, toe contacts with friction "
         f"μ = {p.mu:g}), driven by the constant-touchdown-angle controller of §3.1 (Table 4 set points: touchdown {p.touchdown_front / deg:g}° "
-        f"front, {p.touchdown_back / deg:g}° back, sweep limit 0°) through the saturated DC drives of Eqs. 3–14 on one shared battery. "
+        f"front, {p.touchdown_back / deg:g}° back, sweep limit {p.sweep_front / deg:g}°) through the saturated DC drives of Eqs. 3–14 on one shared battery. "
         f"**Model I** applies the delivered torque at the hip; **Model II** adds the hip unit of Fig. 10 (drive and driven gear "
         f"inertias tied by a gear Coupler of ratio β = {float(runs['Model I'].info.drive.beta):.1f}, the belt/backlash spring-damper, "
-        f"joint stiction and damping). Each run starts in flight (height {p.height} m, pitch {p.pitch / deg:.1f}°, pitch rate "
-        f"{p.pitch_rate} rad/s nose-up, speed {p.speed} m/s, back leg at {p.leg_angle_back / deg:.0f}°, front at {p.leg_angle_front / deg:.0f}°: the apex "
-        f"of a double flight on the bounding cycle) and lasts {t_end:g} s; strides are counted "
-        f"from back-leg lift-off and those starting after {0.4 * t_end:g} s are the steady ones."
+        f"joint stiction and damping) and the dissipation the paper names but did not model: stick–slip friction in the telescopic "
+        f"legs growing with their side load (SlideFriction: μ_d = {p.leg_mu:g} before calibration, bushing overlap {p.leg_overlap:g} m "
+        f"centred {p.leg_bearing:g} m below the hip) and a gearbox drag of {p.gear_drag * 1e3:g} mN m + {p.gear_viscous:g} N m s/rad per "
+        f"motor that makes the efficiency depend on load, speed and the direction of power flow. Table 6's leg damping is used as "
+        f"printed ({p.leg_damping:g} N s/m per physical leg). Both models start the same way: at rest in the standing posture "
+        f"(legs vertical, no speed), released {1e3 * (p.height - p.leg_length - p.toe_radius):.0f} mm above touching; the controller "
+        f"brings them into the bound. Runs last {t_end:g} s; strides from back-leg lift-off starting after {t_end / 2:g} s are the steady ones."
     )
+    rep.add_heading("Calibrated on (not evidence)")
+    if cal_rows is not None:
+        rep.add_table(cal_rows, "The one calibrated parameter, its justified range and the one quantity it was fitted to, with the "
+                      "fitted model's value of that quantity. Agreement here is by construction.", float_format="{:.4g}")
+    else:
+        rep.add_text("No parameter was calibrated in this run" + (f": {cal_err}" if cal_err else "."))
+    rep.add_heading("Predicted (held-out data only)")
+    if pred_rows is not None and len(pred_rows):
+        rep.add_table(pred_rows, "Predictions against data the model was not fitted on (held_out_score refuses fitted quantities). "
+                      "Measured values: seed 003 §5.2 (speed, 10 runs), Fig. 7 / §3.3 (specific resistances).", float_format="{:.4g}")
     rep.add_heading("Gait metrics against the paper")
-    both = {**runs}
-    rep.add_table(_metrics_table(both), "Steady-state gait metrics (seed 003 Fig. 16 quantities). Paper: experiment 1.286 ± 0.04 m/s, Model I 1.56 m/s, Model II 1.43 m/s; specific resistance 0.47 (mechanical) and ≈ 1.4 (electrical) at 1.3 m/s (Fig. 7).", float_format="{:.4g}")
+    rep.add_table(_metrics_table(runs), "Steady-state gait metrics (seed 003 Fig. 16 quantities) of the nominal runs and of Model II "
+                  f"with the calibrated leg friction. Paper (reference): experiment {D.SPEED_MEASURED} ± {D.SPEED_MEASURED_SD} m/s, Model I "
+                  f"{D.SPEED_MODEL_I} m/s, Model II {D.SPEED_MODEL_II} m/s.", float_format="{:.4g}")
+    both = {"Model I": runs["Model I"], "Model II": runs.get("Model II, calibrated", runs["Model II"])}
     rep.add_figure(_fig16(both), "Fig. 16 analogue: forward speed of both models next to the paper's, and the gait metrics of Model II relative to Model I.")
+    rep.add_figure(_fig7(pts), "Fig. 7 analogue: specific resistance against forward speed for every run of this report (set-point "
+                   "searches, calibration, ranges), both models, with the paper's robot measurements (stars).")
     for fig, cap in bound_figures(both):
         rep.add_figure(fig, cap)
     from ..report.animate import animation_iframe
 
     rep.add_heading("3D animation (Model II, the whole run)", level=3)
-    r2 = runs["Model II"].result
-    n = len(r2.t)
-    rep.add_html(animation_iframe(r2, height=420, max_frames=min(400, n)))
-    rep.add_text(_findings(runs, extra, per_runs))
+    r2 = both["Model II"].result
+    rep.add_html(animation_iframe(r2, height=420, max_frames=min(400, len(r2.t))))
+    rep.add_text(findings(_summary(runs, extra, targets, sens, range_tab, cal)))
     if extra:
         rep.add_heading("Low speed (seed 003 §5.3)")
-        rep.add_table(_metrics_table(extra), f"Set points {', '.join(f'{k} = {v / deg:g}°' for k, v in LOW_SPEED_SETPOINTS.items())}. The paper: at 0.8 m/s Model I fails to bound and Model II converges to a period-two 'quasi-bounding' gait.", float_format="{:.4g}")
-    rep.add_heading("Table 6: per physical or per virtual leg")
-    rep.add_table(_metrics_table({**runs, **per_runs}), "The nominal runs next to the other readings of Table 6 (6 s runs): leg mass, inertia and spring read per virtual leg (half of what the default reading gives each virtual leg), and the leg damping read per physical leg (110 N s/m per virtual leg instead of 55).", float_format="{:.4g}")
+        rep.add_table(_metrics_table(extra), "Runs at the set points found for the commanded low speed (touchdown offsets: "
+                      + ", ".join(f"Model {k}: {v / deg:+.2f}°" if not isinstance(v, str) else f"Model {k}: not found" for k, v in targets.items())
+                      + "). The paper: at 0.8 m/s Model I fails to bound and Model II converges to a period-two gait.", float_format="{:.4g}")
+    if range_tab:
+        rep.add_heading("The finding across the unknown parameters' ranges (Model II)")
+        rep.add_table(pd.DataFrame(range_tab), "Model II with each unknown parameter at the ends of its justified range (scout2_data), the others nominal.", float_format="{:.4g}")
+    if per_runs:
+        rep.add_heading("Table 6: per physical or per virtual leg")
+        rep.add_table(_metrics_table({**{k: runs[k] for k in ("Model I", "Model II")}, **per_runs}), "The nominal runs next to the other readings of Table 6: every leg value per virtual leg, and only the leg damping per virtual leg (half the printed value per physical leg: the reading that let Model I bound before issue 31).", float_format="{:.4g}")
     if sens:
         rep.add_heading("Sensitivity to the interpreted Table 5 values (Model II)")
-        rep.add_table(pd.DataFrame(sens), "Each garbled Table 5 value ×0.1 and ×10 (5 s runs, steady after 2.5 s): how much the interpretation matters for the forward speed.", float_format="{:.4g}")
+        rep.add_table(pd.DataFrame(sens), "Each garbled Table 5 value ×0.1 and ×10.", float_format="{:.4g}")
     rep.add_heading("Energy bookkeeping")
-    eb = pd.DataFrame({name: energy_balance(run.result, run.info) for name, run in runs.items()})
-    rep.add_table(eb, "Energies over the whole run [J]: battery = hip work + copper + gear losses; hip work (the integrator's 'input') = change of mechanical energy + dissipation (leg dampers, toe contacts and friction, extension stops, belt, joint friction).", float_format="{:.5g}")
+    eb = pd.DataFrame({name: energy_balance(run.result, run.info) for name, run in both.items()})
+    rep.add_table(eb, "Energies over the whole run [J]: battery = hip work + copper + gear losses (the gear losses include the load- and "
+                  "speed-dependent drag); hip work (the integrator's 'input') = change of mechanical energy + dissipation (leg dampers and "
+                  "leg friction, toe contacts, extension stops, belt, joint friction).", float_format="{:.5g}")
     rep.add_heading("Model")
-    rep.add_parameters(runs["Model II"].info.parameters, "Model parameters and their sources (seed 003 tables; MODEL_DATA §4; interpretations in proleg.robots.scout2_data).")
+    rep.add_parameters(runs["Model II"].info.parameters, "Model parameters and their sources (seed 003 tables; MODEL_DATA §4; interpretations and ranges in proleg.robots.scout2_data).")
     rep.add_table(pd.DataFrame([{"run": n, "wall time [s]": r.wall_time, "steps": r.result.stats.get("steps") if isinstance(r.result.stats, dict) else np.nan,
-                                 "status": r.metrics.get("status")} for n, r in {**runs, **extra, **per_runs}.items()]),
+                                 "status": r.metrics.get("status")} for n, r in all_runs.items()]),
                   "Runs (wall time includes compilation for the first run of each model).", float_format="{:.4g}")
     rep.add_key_values({"total wall time [s]": f"{time.perf_counter() - wall0:.1f}", "output folder": str(out)}, "Run")
     return rep.save(out / "scout2_bound_report.html")
 
 
-def _findings(runs, extra, per_runs) -> str:
+SENSITIVITY = (("drive_gear_inertia", "drive gear inertia"), ("driven_gear_inertia", "driven gear inertia"),
+               ("joint_damping", "joint damping"), ("belt_damping", "belt damper"))
+
+
+def sensitivity_rows(t_end, base, factors=(0.1, 10.0), rows=None, **params) -> list[dict]:
+    """Model II forward speed with each garbled Table 5 value scaled by ``factors`` (on
+    ``base``'s compiled system; runs of ``t_end`` s, steady after t_end / 2)."""
+
+    v0 = base.metrics["forward_speed"]
+    out = []
+    for pname, label in SENSITIVITY:
+        nominal = getattr(base.info.params, pname)
+        for f in factors:
+            kw = {**NOMINAL_START, **params, pname: nominal * f}
+            r = scout2_bound("II", t_end, system=variant_system(base.system, "II", **kw), transient=t_end / 2, **kw)
+            v = r.metrics["forward_speed"]
+            out.append({"parameter": label, "factor": f, "value": nominal * f, "forward speed [m/s]": v, "period": r.metrics["period"],
+                        "fell": r.metrics["fell"], "speed change [%]": 100 * (v / v0 - 1)})
+            if rows is not None:
+                rows.append(S.point_row(r, f"Model II, {label} ×{f:g}"))
+    return out
+
+
+def _calibration_tables(cal, cal_err, runs, extra, m2c):
+    """("calibrated on" rows, "predicted" rows) DataFrames; the predicted rows go through
+    held_out_score, which refuses the quantity the friction was fitted on."""
+    from ..identify.calibration import held_out_score
+
+    cal_tab = None
+    if cal is not None:
+        q = cal.fitted_on[0]
+        cal_tab = pd.DataFrame([{**cal.row(), "quantity": q, "model at the fit": m2c["specific_resistance_electrical"], "measured": D.SR_ELECTRICAL}])
+    pred, meas = {}, {}
+    pred["forward speed, nominal set point [m/s]"] = m2c["forward_speed"]
+    meas["forward speed, nominal set point [m/s]"] = D.SPEED_MEASURED
+    pred["mechanical specific resistance, nominal set point"] = m2c["specific_resistance_mechanical"]
+    meas["mechanical specific resistance, nominal set point"] = D.SR_MECHANICAL
+    low = extra.get("Model II, low speed")
+    if low is not None:
+        lm = low.metrics
+        pred["mechanical specific resistance, low speed"] = lm["specific_resistance_mechanical"]
+        meas["mechanical specific resistance, low speed"] = D.SR_LOW_SPEED[1]
+        pred["electrical specific resistance, low speed"] = lm["specific_resistance_electrical"]
+        meas["electrical specific resistance, low speed"] = D.SR_LOW_SPEED[2]
+    if cal is None:
+        pred["electrical specific resistance at the nominal set point"] = m2c["specific_resistance_electrical"]
+        meas["electrical specific resistance at the nominal set point"] = D.SR_ELECTRICAL
+    rows = held_out_score([cal] if cal is not None else [], pred, meas)
+    v1 = runs["Model I"].metrics["forward_speed"]
+    both = np.isfinite(v1) and np.isfinite(m2c["forward_speed"])
+    slower = float(m2c["forward_speed"] < v1) if both else np.nan  # undefined unless both bound
+    rows.append({"quantity": "Model II slower than Model I (1 = yes; paper's models: yes)", "predicted": slower, "measured": 1.0,
+                 "error": slower - 1.0, "relative error [%]": np.nan})
+    return cal_tab, pd.DataFrame(rows)
+
+
+def _fig7(pts: pd.DataFrame):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .scout2_study import PAPER_POINTS
+
+    fig, ax = plt.subplots(1, 2, figsize=(10, 3.6))
+    for j, (col, k) in enumerate((("SR mechanical", 1), ("SR electrical", 2))):
+        for m, mk in (("I", "o"), ("II", "s")):
+            sel = pts[(pts["model"] == m) & np.isfinite(pts["speed [m/s]"])] if len(pts) else pts
+            ax[j].plot(sel["speed [m/s]"], sel[col], mk, ms=4, alpha=0.7, label=f"Model {m}")
+        ax[j].plot([pp[0] for pp in PAPER_POINTS], [pp[k] for pp in PAPER_POINTS], "k*", ms=10, label="robot (seed 003 Fig. 7)")
+        ax[j].set(xlabel="forward speed [m/s]", ylabel=f"specific resistance, {col.split()[1]} [-]", xlim=(0.6, 2.0))
+    ax[0].legend(fontsize=7)
+    return fig
+
+
+def _summary(runs, extra, targets, sens, range_tab, cal) -> dict:
+    """The numbers the findings are written from (all computed by the run)."""
     m1, m2 = runs["Model I"].metrics, runs["Model II"].metrics
-    lines = ["**Findings.**"]
-    for name, m in (("Model I", m1), ("Model II", m2)):
-        if m["fell"] or m["period"] == 0:
-            lines.append(f"{name} does not settle into a steady bound with these parameters (period detector: {m['period']}, fell: {m['fell']}).")
-        else:
-            lines.append(f"{name} bounds with period {m['period']} at {m['forward_speed']:.3f} m/s ({m['stride_frequency']:.2f} Hz).")
-    v1, v2 = m1["forward_speed"], m2["forward_speed"]
+    m2c = runs.get("Model II, calibrated", runs["Model II"]).metrics
+    out = {"I": m1, "II": m2, "II_cal": m2c, "calibrated": None if cal is None else cal.value, "low": {}, "sens": sens, "ranges": range_tab}
+    for k, r in extra.items():
+        out["low"][k] = r.metrics
+    out["targets"] = {k: (v if isinstance(v, str) else float(v)) for k, v in targets.items()}
+    return out
+
+
+def _gait(name, m):
+    if m["fell"]:
+        return f"{name} falls."
+    if m["strides"] == 0 or not np.isfinite(m["forward_speed"]):
+        return f"{name} stops bounding (no steady stride)."
+    if m["period"] not in (1, 2):
+        return (f"{name} does not settle into a steady gait (period detector 0): it stalls and restarts, "
+                f"{m['forward_speed']:.3f} m/s on average over the late strides.")
+    per = {1: "period one", 2: "period two"}[m["period"]]
+    return f"{name} bounds ({per}) at {m['forward_speed']:.3f} m/s, electrical specific resistance {m['specific_resistance_electrical']:.3g}."
+
+
+def findings(s: dict) -> str:
+    """Findings prose written from :func:`_summary`'s numbers; the paper's values enter only
+    as cited references (scout2_data), so every other number is computed by the run."""
+    lines = ["**Findings.**", _gait("Model I", s["I"]), _gait("Model II (nominal leg friction)", s["II"])]
+    if s["calibrated"] is not None:
+        lines.append(f"With the leg friction calibrated to μ_d = {s['calibrated']:.3g}: " + _gait("Model II", s["II_cal"]))
+    v1, v2 = s["I"]["forward_speed"], s["II_cal"]["forward_speed"]
+    vm = D.SPEED_MEASURED
     if np.isfinite(v1) and np.isfinite(v2):
-        closer = "Model II" if abs(v2 - D.SPEED_MEASURED) < abs(v1 - D.SPEED_MEASURED) else "Model I"
+        order = "slower" if v2 < v1 else "faster"
         lines.append(
-            f"{closer} is closer to the measured 1.286 m/s; in the paper Model II is (1.43 against Model I's 1.56). Both "
-            f"models here run {100 * (min(v1, v2) / D.SPEED_MEASURED - 1):.0f}–{100 * (max(v1, v2) / D.SPEED_MEASURED - 1):.0f} % faster than the robot, "
-            "as the paper's do (21 % and 11 %)."
+            f"Model II is {order} than Model I ({v2:.3f} against {v1:.3f} m/s); in the paper it is slower ({D.SPEED_MODEL_II} against "
+            f"{D.SPEED_MODEL_I} m/s). Against the robot's {vm} m/s the models here are {100 * (v1 / vm - 1):+.0f} % (Model I) and "
+            f"{100 * (v2 / vm - 1):+.0f} % (Model II); the paper's are {100 * (D.SPEED_MODEL_I / vm - 1):+.0f} % and "
+            f"{100 * (D.SPEED_MODEL_II / vm - 1):+.0f} %. Model II is {100 * (v2 / D.SPEED_MODEL_II - 1):+.0f} % from the paper's Model II speed."
         )
-        if closer == "Model I":
-            lines.append(
-                "Why Model II is not slower here: with the Table 5 values as interpreted (scout2_data), the belt and gear "
-                "dynamics change the gait (longer flight, larger pitch) but hardly cost speed; the sensitivity table shows "
-                "which interpretations move it (a ten times larger belt damper slows Model II by about 9 %, a ten times larger "
-                "drive-gear inertia makes it fall). The paper's hip-unit values were fitted to its robot in Working Model; the "
-                "garbled exponents, the unknown toe friction and the gearbox efficiency (the maximum, 68 %, used throughout, §5.3) "
-                "are the candidates for the difference."
-            )
-    for name, run in extra.items():
-        m = run.metrics
-        state = "falls" if m["fell"] else ("stops bounding (no stride after the transient)" if m["strides"] == 0 else f"bounds with period {m['period']} at {m['forward_speed']:.3f} m/s")
-        lines.append(f"{name}: {state}.")
-    if extra:
-        lines.append("The paper: at 0.8 m/s Model I fails to bound (reproduced) and Model II converges to a period-two gait (not reproduced with these set points).")
+    for k, m in s["low"].items():
+        lines.append(_gait(k, m))
+    for k, v in s.get("targets", {}).items():
+        if isinstance(v, str):
+            lines.append(f"Model {k}: no set point gives the commanded {LOW_SPEED_TARGET} m/s within the searched touchdown offsets.")
+    sens = [r for r in s.get("sens", []) if np.isfinite(r.get("speed change [%]", np.nan))]
+    if sens:
+        big = max(sens, key=lambda r: abs(r["speed change [%]"]))
+        lines.append(f"Of the Table 5 interpretations, the {big['parameter']} ×{big['factor']:g} moves Model II's speed most: {big['speed change [%]']:+.1f} %.")
+    rng = [r for r in s.get("ranges", []) if np.isfinite(r.get("speed [m/s]", np.nan))]
+    if rng:
+        lo, hi = min(r["speed [m/s]"] for r in rng), max(r["speed [m/s]"] for r in rng)
+        lines.append(f"Across the unknown parameters' ranges Model II's speed spans {lo:.3f}–{hi:.3f} m/s"
+                     + (f" (Model I: {v1:.3f} m/s)." if np.isfinite(v1) else "."))
     return " ".join(lines)

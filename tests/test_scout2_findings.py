@@ -1,0 +1,62 @@
+"""Scout II report prose: every number in the findings is computed by the run (issue 31).
+
+The findings are written from a summary of the run's metrics (scout2_report._summary). Perturb
+every computed number by 7 %: every number in the prose must change, except the paper's cited
+reference values (scout2_data) and the study settings (factors, commanded speed). A frozen
+number ("21 % and 11 %", "about 9 %") would survive the perturbation and fail this test.
+"""
+
+import re
+
+import numpy as np
+
+from proleg.robots import scout2_data as D
+from proleg.robots.scout2_report import LOW_SPEED_TARGET, findings
+
+NUM = re.compile(r"[-+]?\d+(?:\.\d+)?")
+
+
+def metrics(v, sr, period=1, fell=False, strides=8):
+    return {"forward_speed": v, "specific_resistance_electrical": sr, "specific_resistance_mechanical": 0.3 * sr, "period": period,
+            "fell": fell, "strides": strides}
+
+
+def summary(f=1.0):
+    return {
+        "I": metrics(1.611 * f, 1.13 * f), "II": metrics(1.523 * f, 1.37 * f, period=2), "II_cal": metrics(1.447 * f, 1.41 * f),
+        "calibrated": 0.137 * f, "low": {"Model II, low speed": metrics(0.853 * f, 2.31 * f, period=2)},
+        "targets": {"I": "not found", "II": -0.07 * f},
+        "sens": [{"parameter": "belt damper", "factor": 10.0, "speed change [%]": -8.7 * f},
+                 {"parameter": "joint damping", "factor": 0.1, "speed change [%]": 1.3 * f}],
+        "ranges": [{"speed [m/s]": 1.38 * f}, {"speed [m/s]": 1.52 * f}],
+    }
+
+
+def reference_tokens():
+    vm = D.SPEED_MEASURED
+    refs = {D.SPEED_MEASURED, D.SPEED_MODEL_I, D.SPEED_MODEL_II, LOW_SPEED_TARGET, 10, 0.1}
+    toks = {f"{x:g}" for x in refs} | {str(x) for x in refs}
+    toks |= {f"{100 * (D.SPEED_MODEL_I / vm - 1):+.0f}", f"{100 * (D.SPEED_MODEL_II / vm - 1):+.0f}"}
+    return toks
+
+
+def test_every_number_in_the_findings_is_computed():
+    a, b = findings(summary(1.0)), findings(summary(1.07))
+    cite = re.compile(r"(Table|Fig\.|Eq\.|seed) \d+")  # citations are labels, not results
+    ta, tb = NUM.findall(cite.sub("", a)), NUM.findall(cite.sub("", b))
+    assert len(ta) == len(tb) >= 15  # same sentences, many numbers
+    refs = reference_tokens()
+    frozen = [x for x, y in zip(ta, tb) if x == y and x not in refs]
+    assert not frozen, f"numbers that did not follow the computation: {frozen}\n{a}"
+    # the paper's comparison numbers appear only as cited references
+    assert "about 9" not in a  # the sensitivity number comes from the sensitivity rows
+
+
+def test_findings_report_a_fall_and_no_bound():
+    s = summary()
+    s["I"] = metrics(np.nan, np.nan, period=0, fell=True, strides=0)
+    s["II_cal"] = metrics(np.nan, np.nan, period=0, strides=0)
+    s["II"] = metrics(0.367, 4.16, period=0)
+    text = findings(s)
+    assert "Model I falls" in text and "stops bounding" in text
+    assert "does not settle into a steady gait" in text and "0.367 m/s on average" in text
