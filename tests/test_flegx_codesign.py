@@ -69,3 +69,20 @@ def test_push_at_limits_finds_the_binding_constraint(monkeypatch):
     assert out["t_push_s"] == pytest.approx(0.225, abs=1e-12)
     assert out["jump_mm"] == pytest.approx(1e3 * (0.5 - 0.225), abs=1e-9)
     assert out["stress_takeoff_MPa"] < 520.0
+
+
+def test_report_sentences_are_computed_from_the_codesign_rows(monkeypatch, tmp_path):
+    """The FLEGX study report's co-design lines carry the run's numbers (none frozen)."""
+    from proleg.robots import flegx_report
+
+    def fake(c, case, lm, store=None):
+        return {"configuration": c, "link_case": case, "link_model": lm, "paper_jump_mm": 100.0 + c, "paper_stress_MPa": 520.0,
+                "grid": None, "jump_mm": 50.0 + 10 * c, "stress_takeoff_MPa": 500.0 + c, "peak_hip_Nm": 60.0, "peak_knee_Nm": 77.0,
+                "t_push_s": 0.2 + 0.01 * c, "binding": "peak_knee_torque"}
+
+    monkeypatch.setattr(FC, "push_at_limits", fake)
+    extra = []
+    head = flegx_report._codesign_section(tmp_path, (1, 2), extra)
+    assert "No. 2 > No. 1" in head and "paper No. 2 > No. 1" in head
+    assert "push 0.220 s → 70.0 mm at 502 MPa" in extra[1] and "binding: peak_knee_torque" in extra[1]
+    assert (tmp_path / "codesign.parquet").exists()
