@@ -139,7 +139,7 @@ def optimise_table_i(configurations=(1, 2, 3, 4), cases=(2,), link_model: str = 
 
 
 def push_at_limits(configuration: int, link_case: int, link_model: str = "prbm", *, pushes=(0.16, 0.20, 0.25, 0.30),
-                   executor: str = "local", store=None, progress: bool = False) -> dict:
+                   gears: str = "ideal", executor: str = "local", store=None, progress: bool = False) -> dict:
     """The reduced co-design: the push duration alone varies (the extended pose at flegx_jump's
     default), over a grid of ``pushes`` [s] run as one batch. Where the jump height falls and
     each constrained output rises as the push lengthens (checked on the grid, reported as
@@ -149,7 +149,7 @@ def push_at_limits(configuration: int, link_case: int, link_model: str = "prbm",
     Returns a row like :func:`optimise_law`'s plus the grid's own rows (``grid``)."""
     from ..study.codesign import slack
 
-    study, law = codesign_study(configuration, link_case, link_model, space={"law_t_push": (min(pushes), max(pushes))})
+    study, law = codesign_study(configuration, link_case, link_model, gears, space={"law_t_push": (min(pushes), max(pushes))})
     rows = study.evaluate(pd.DataFrame({"law_t_push": sorted(pushes)}), executor=executor, store=store, progress=progress,
                           workers=1)
     rows = rows.sort_values("law_t_push").reset_index(drop=True)

@@ -225,6 +225,10 @@ def _jump_findings(outs) -> str:
 # ------------------------------------------------------------------------------------------
 # flegx-machinery
 # ------------------------------------------------------------------------------------------
+#: the pushes [s] the machinery run's law is searched among (flegx_codesign.push_at_limits)
+MACHINERY_PUSHES = (0.22, 0.27, 0.32, 0.38)
+
+
 def run_machinery(out_dir="results/flegx-machinery", progress: bool = True, workers: int | None = None) -> Path:
     """Worm-gear model (seed 002 §III.C, Fig. 4): a ≈ 50 mm jump with take-off and landing, worm vs ideal gears."""
     from ..report.html import Report
@@ -233,12 +237,15 @@ def run_machinery(out_dir="results/flegx-machinery", progress: bool = True, work
     wall0 = time.perf_counter()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    # a slower push than flegx-jump's, away from the leg's bounce period, tuned with worm gears in the dynamics
-    # (measured 2026-11-25; Fig. 4: 50 mm, 447 MPa, ≈ 32 mm): t_push 0.32 s: 47.6 mm, 437 MPa, 30.4 mm (chosen);
-    # 0.35 s: 53.0 mm, 402 MPa, 28.0 mm; extend (-22°, 44°) with 0.30 s: 47.2 mm, 483 MPa (447 at take-off), 33.4 mm
-    # (one clean flight). With 0.32 s the foot first leaves at 1.18 s and touches again at 1.33 s while the leg still
-    # extends; the apex (guide 1.41 s) is in the flight from 1.38 s.
-    law = dict(extend=(-20.0 * deg, 40.0 * deg), t_push=0.32)
+    # the push is not picked by hand: the shortest push within 520 MPa up to take-off and the 77 N m wheel rating,
+    # found with worm gears in the dynamics by flegx_codesign.push_at_limits (its binding constraint is reported)
+    from ..errors import ModelError
+    from .flegx_codesign import push_at_limits
+
+    found = push_at_limits(4, 2, "cb", gears="worm", pushes=MACHINERY_PUSHES, store=out / "codesign")
+    if "t_push_s" not in found:
+        raise ModelError(f"flegx-machinery: no push in {MACHINERY_PUSHES} s meets the limits ({found['binding']}); widen the grid.")
+    law = dict(extend=(-20.0 * deg, 40.0 * deg), t_push=float(found["t_push_s"]))
     jobs = [dict(tag=g, configuration=4, link_case=2, link_model="cb", gears=g, dt_output=1e-3, animate=g == "worm", **law)
             for g in ("worm", "ideal")]
     outs = run_jobs(jobs, workers, progress)
@@ -257,7 +264,10 @@ def run_machinery(out_dir="results/flegx-machinery", progress: bool = True, work
         "friction (drives.gears.worm_mesh: f = 0.14 static / 0.13 dynamic, Eq. 16 efficiency η = 0.59-0.61 worm driving, "
         "η_back = 0.34-0.39 wheel driving; FLEGX's worm would self-lock only above f = 0.217); the torque at the worm is the "
         "motor's (the motion's effort), the loss is the mesh's friction power f W v_s. With ideal gears the wheels are "
-        "driven directly and the worm torque is the wheel torque / 9.67.")
+        "driven directly and the worm torque is the wheel torque / 9.67. "
+        f"The push ({law['t_push']:.3f} s) is not picked by hand: it is the shortest push among {list(MACHINERY_PUSHES)} s "
+        "(interpolated between them) at which the stress up to take-off stays within 520 MPa and each wheel torque within "
+        f"its 77 N m rating, with worm gears in the dynamics (flegx_codesign.push_at_limits); binding: {found['binding']}.")
     rep.add_heading("Results")
     rep.add_table(tab, "Metrics (seed 002 Fig. 4: 50 mm jump, max stress 447 MPa, tip displacement ≈ 32 mm, 12.8 % of L).",
                   float_format="{:.4g}", index=False)
