@@ -172,3 +172,19 @@ def test_gradient_through_the_simulation_matches_central_differences():
     # the implicit steps' Newton residual (~1e-13 m) over h: ~1e-9 m/(N m)
     np.testing.assert_allclose(g, fd, rtol=1e-6, atol=5e-9)
     assert np.all(np.abs(g[1:]) > 1e-4)  # every interior knot moves the bob
+
+
+def test_pid_setpoint_reads_a_law_and_follows_its_knots():
+    """A PID servo (kp = 50 N m/rad, kd = 2 N m s/rad on J = 0.02 kg m²: ω_n = 50 rad/s, ζ = 1)
+    whose set point is a STEP5 chain settles on the chain's last knot; a new last knot through
+    with_params moves where it settles (steady state of a type-0 loop without load: no error)."""
+    m = pl.Model("law_pid", gravity=(0, 0, 0))
+    r = m.add_part("rotor", mass=1.0, inertia=(0.01, 0.01, J), position=(0, 0, 0))
+    m.add_joint(pl.Revolute("pin", m.ground, r, at=(0, 0, 0), axis=(0, 0, 1)))
+    law = m.add_law(pl.Step5Chain("sp", [0.0, 0.2], [0.0, 0.5]))
+    m.add_controller(pl.PID("servo", "pin", kp=50.0, kd=2.0, setpoint=law))
+    system = pl.assemble(m)
+    for last in (0.5, -0.3):
+        res = pl.simulate(system.with_params(sp_y1=last), t_end=0.6, dt_output=0.01)
+        # 0.4 s after the set point's end, e^{-ω_n t}(1 + ω_n t) ≈ 4e-8 of the step remains
+        assert res.joint("pin").angle[-1] == pytest.approx(last, abs=1e-4)
