@@ -28,7 +28,7 @@ def main():
     ap.add_argument("--configurations", type=int, nargs="+", default=[1, 2, 3, 4])
     ap.add_argument("--cases", type=int, nargs="+", default=[2])
     ap.add_argument("--link-model", default="prbm")
-    ap.add_argument("--pushes", type=float, nargs="+", default=[0.16, 0.20, 0.25, 0.30])
+    ap.add_argument("--pushes", type=float, nargs="+", default=[0.16, 0.20, 0.25, 0.30, 0.38, 0.45])
     ap.add_argument("--full", action="store_true", help="CMA-ES over push duration and extended pose")
     ap.add_argument("--trials", type=int, default=24)
     a = ap.parse_args()
@@ -39,7 +39,7 @@ def main():
             if a.full:
                 r = FC.optimise_law(c, k, a.link_model, n_trials=a.trials, store=HERE / "results" / "flegx_codesign" / f"{c}_{k}")
             else:
-                r = FC.push_at_limits(c, k, a.link_model, pushes=tuple(a.pushes), store=HERE / "results" / "flegx_codesign_push" / f"{c}_{k}")
+                r = FC.push_at_limits(c, k, a.link_model, pushes=tuple(a.pushes), store=HERE / "results" / "flegx_codesign_push" / f"{c}_{k}_{min(a.pushes):g}-{max(a.pushes):g}")
                 g = r.pop("grid")
                 g.insert(0, "configuration", c)
                 grids.append(g)
@@ -50,10 +50,10 @@ def main():
         if col not in df:
             df[col] = float("nan")
     text = [f"# FLEGX co-design ({'CMA-ES, push and pose' if a.full else 'push duration only'}; {a.link_model}; "
-            f"{time.perf_counter() - t0:.0f} s)", "", df[COLS].round(3).to_markdown(index=False), "", FC.ranking_text(df)]
+            f"{time.perf_counter() - t0:.0f} s)", "", df[COLS].round(3).to_string(index=False), "", FC.ranking_text(df)]
     if grids:
-        text += ["", "Grid (every push run):", "", pd.concat(grids)[["configuration", "law_t_push", *FC.OUTPUTS]].round(4).to_markdown(index=False)]
-    out = HERE / "results" / ("flegx_codesign_full.md" if a.full else "flegx_codesign.md")
+        text += ["", "Grid (every push run):", "", pd.concat(grids)[["configuration", "law_t_push", *FC.OUTPUTS]].round(4).to_string(index=False)]
+    out = HERE / "results" / ("flegx_codesign_full.md" if a.full else f"flegx_codesign_{min(a.pushes):g}-{max(a.pushes):g}.md")
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text("\n".join(text) + "\n")
     print("\n".join(text))

@@ -138,7 +138,7 @@ def optimise_table_i(configurations=(1, 2, 3, 4), cases=(2,), link_model: str = 
     return df
 
 
-def push_at_limits(configuration: int, link_case: int, link_model: str = "prbm", *, pushes=(0.16, 0.20, 0.25, 0.30),
+def push_at_limits(configuration: int, link_case: int, link_model: str = "prbm", *, pushes=(0.16, 0.20, 0.25, 0.30, 0.38, 0.45),
                    gears: str = "ideal", executor: str = "local", store=None, progress: bool = False) -> dict:
     """The reduced co-design: the push duration alone varies (the extended pose at flegx_jump's
     default), over a grid of ``pushes`` [s] run as one batch. Where the jump height falls and
