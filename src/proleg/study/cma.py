@@ -45,7 +45,7 @@ def optimize_cma(study, objective, constraints, n_trials: int, *, direction="min
     from cmaes import CMA
 
     from .codesign import checked_constraints, slack
-    from .optimize import OptimizationResult, to_unit
+    from .results import OptimizationResult, to_unit
 
     if isinstance(objective, (list, tuple)):
         raise ModelError("optimize: CMA-ES optimises one objective; for a Pareto front use sampler='nsga2'.")

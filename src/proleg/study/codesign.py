@@ -142,7 +142,7 @@ def refine(study, start, objective: str, *, direction="minimize", maxiter: int =
 
     from ..analyses.simulate import simulate, simulate_kwargs
     from ..assembly.system import System
-    from .optimize import OptimizationResult, to_unit
+    from .results import OptimizationResult, to_unit
 
     if isinstance(start, OptimizationResult):
         if not start.best_params:

@@ -13,25 +13,14 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 
 from ..errors import ModelError
+from .results import OptimizationResult as OptimizationResult
+from .results import to_unit as to_unit
 from .space import Choice, Fixed, LogRange, Range
-
-
-@dataclass
-class OptimizationResult:
-    """``best_params`` {name: value}, ``best_value`` (one objective) or ``best_trials`` (several),
-    ``trials`` (optuna's trials table), ``rows`` (the evaluated study rows) and the optuna study."""
-
-    best_params: dict
-    best_value: float | list | None
-    trials: pd.DataFrame
-    rows: pd.DataFrame
-    optuna_study: object
 
 
 def _distributions(space):
@@ -175,18 +164,6 @@ def optimize(study, objective, constraints=None, n_trials: int = 50, *, sampler=
         front = ost.best_trials
         bp, bv = ({**front[0].params, **fixed} if front else {}), [t.values for t in front]
     return OptimizationResult(bp, bv, ost.trials_dataframe(), rows, ost)
-
-
-def to_unit(study, names, vals):
-    out = []
-    for k in names:
-        d = study.space.dims[k]
-        x = float(vals[k])
-        if isinstance(d, LogRange):
-            out.append((math.log10(x) - math.log10(d.lo)) / (math.log10(d.hi) - math.log10(d.lo)))
-        else:
-            out.append((x - d.lo) / (d.hi - d.lo))
-    return np.clip(np.array(out), 0.0, 1.0)
 
 
 def refine(study, start, objective: str, **kw) -> dict:
