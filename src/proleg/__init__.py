@@ -152,6 +152,9 @@ from .model.control import DiscreteController as DiscreteController
 from .model.control import HydraulicActuator as HydraulicActuator
 from .model.control import JointActuator as JointActuator
 from .model.control import Motion as Motion
+from .model.laws import FourierLaw as FourierLaw
+from .model.laws import SplineLaw as SplineLaw
+from .model.laws import Step5Chain as Step5Chain
 from .model.control import TranslationalActuator as TranslationalActuator
 from . import fn as fn
 from .model.control import StateMachine as StateMachine

@@ -225,16 +225,24 @@ def _trace(who: str, fn, *args, shapes=((),), unit=""):
 def _check_time_functions(model: Model):
     """Trace every function of time once (motions, PID setpoints): a ``math.sin`` or an ``if`` on
     t is a ModelError naming the element here, not a ConcretizationTypeError inside a solver."""
+    from ..model.forces import _callable_arity
+    from .constraints import VariableView
+
     t = jax.ShapeDtypeStruct((), jnp.float64)
+    P = {f"variable_{k}": jnp.asarray(v[0], jnp.float64) for k, v in getattr(model, "variables", {}).items()}
+
+    def call(f, tt):
+        return jnp.asarray(f(tt) if _callable_arity(f) <= 1 else f(tt, VariableView(P, tt)), jnp.float64)
+
     for m in getattr(model, "motions", []):
         for what in ("displacement", "velocity", "acceleration"):
             f = getattr(m, what, None)
             if f is not None:
-                _trace(f"Motion '{m.name}': its {what} function f(t)", lambda tt, f=f: jnp.asarray(f(tt), jnp.float64), t,
-                       unit="rad or m")
+                _trace(f"Motion '{m.name}': its {what} function f(t{'' if _callable_arity(f) <= 1 else ', state'})",
+                       lambda tt, f=f: call(f, tt), t, unit="rad or m")
     for c in getattr(model, "controllers", []):
         if getattr(c, "kind", "") == "pid" and callable(c.setpoint):
-            _trace(f"PID '{c.name}': its setpoint function f(t)", lambda tt, f=c.setpoint: jnp.asarray(f(tt), jnp.float64), t)
+            _trace(f"PID '{c.name}': its setpoint function f(t)", lambda tt, f=c.setpoint: call(f, tt), t)
 
 
 def _check_part_loads(system: System):

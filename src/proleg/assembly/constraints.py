@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import jax.numpy as jnp
 import numpy as np
 
+from ..errors import ModelError
 from .select import Select
 
 
@@ -143,11 +144,36 @@ def _axes(sel: Select, axes, R9):
     return (Select(flat.reshape(-1), R9.size) @ R9.reshape(-1)).reshape(-1, 3)
 
 
-def constraint_values(ct: ConstraintTopology, screw_lead, mr, mR, p, t, coupler=None):
+class VariableView:
+    """What a motion law ``f(t, state)`` receives in Φ: the design variables (``state.variable``)
+    and the time; the configuration is not offered (a motion law is a function of time)."""
+
+    def __init__(self, params, t):
+        self._P, self.t = params, t
+
+    def variable(self, name):
+        key = f"variable_{name}"
+        if self._P is None or key not in self._P:
+            have = sorted(k[9:] for k in (self._P or {}) if k.startswith("variable_"))
+            raise ModelError(f"Motion law: no design variable named '{name}'. Known: {have}. Add it with model.add_variable or model.add_law.")
+        return self._P[key]
+
+
+def call_time_function(fn, t, params):
+    """``fn(t)``, or ``fn(t, VariableView)`` for a law of two arguments (design variables)."""
+    from ..model.forces import _callable_arity
+
+    if _callable_arity(fn) >= 2:
+        return fn(t, VariableView(params, t))
+    return fn(t)
+
+
+def constraint_values(ct: ConstraintTopology, screw_lead, mr, mR, p, t, coupler=None, params=None):
     """Φ(q, t) from marker positions ``mr`` (nm, 3), frames ``mR`` (nm, 3, 3) and body p (nb, 4).
 
     ``coupler``: (ratio, offset) arrays of the Coupler rows (params ``coupler_ratio``,
-    ``coupler_offset``)."""
+    ``coupler_offset``). ``params``: the System's parameters, for motion laws that read design
+    variables (``f(t, state)``)."""
     parts = []
     R9 = mR.reshape(mR.shape[0], 9)
     if ct.sph_i.shape[0]:
@@ -169,7 +195,7 @@ def constraint_values(ct: ConstraintTopology, screw_lead, mr, mR, p, t, coupler=
         lead = screw_lead[ct.sc_param] / (2.0 * jnp.pi)
         parts.append(z - lead * th)
     if ct.drv_i.shape[0]:
-        f = jnp.stack([jnp.asarray(fn(t), dtype=mr.dtype) for fn in ct.drv_fn])
+        f = jnp.stack([jnp.asarray(call_time_function(fn, t, params), dtype=mr.dtype).reshape(()) for fn in ct.drv_fn])
         d = _coordinate(ct.drv_i, ct.drv_j, ct.drv_rot, mr, R9) - f
         # Rotations: the wrapped difference, so a driven joint can turn through any number of turns.
         parts.append(jnp.where(ct.drv_rot, _wrap(d), d))

@@ -13,6 +13,7 @@ import numpy as np
 from ..contact_law import friction_vector, normal_force
 from ..errors import ModelError
 from ..fn import _safe_pow
+from ..model.forces import _callable_arity
 from .constraints import _frames, _oh, joint_coordinate
 from .kinematics import StateView, kinematics
 from .elements import AbstractGroup, TwoMarkerGroup, pair_loads
@@ -157,7 +158,7 @@ class ControllerGroup(AbstractGroup):
                 if e.setpoint is None:
                     sp = system.params["controller_setpoint0"][k]
                 elif callable(e.setpoint):
-                    sp = jnp.asarray(e.setpoint(t), jnp.float64)
+                    sp = jnp.asarray(e.setpoint(t) if _callable_arity(e.setpoint) <= 1 else e.setpoint(t, view), jnp.float64).reshape(())
                 else:
                     sp = jnp.asarray(e.setpoint, jnp.float64)
                 err = sp - th[k]

@@ -496,7 +496,7 @@ class JointCoordinates:
         r, A, _, _ = self._poses(x)
         mk = self._markers(self._body_kin(r, A))
         cpl = (P["coupler_ratio"], P["coupler_offset"]) if "coupler_ratio" in P else None
-        return constraint_values(T.ct, P.get("screw_lead", jnp.zeros(0)), mk.r, mk.R, jnp.zeros((0, 4), x.dtype), t, cpl)
+        return constraint_values(T.ct, P.get("screw_lead", jnp.zeros(0)), mk.r, mk.R, jnp.zeros((0, 4), x.dtype), t, cpl, P)
 
     def constraints(self, x, t):
         """Cut-joint, motion and coupler rows, then pᵀp − 1 of each floating base."""

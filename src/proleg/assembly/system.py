@@ -191,7 +191,7 @@ def constraints(system: System, q, t):
     topo, P = system.topo, system.params
     bk, mk = kinematics(system, q)
     cpl = (P["coupler_ratio"], P["coupler_offset"]) if "coupler_ratio" in P else None
-    return constraint_values(topo.ct, P.get("screw_lead", jnp.zeros(0)), mk.r, mk.R, bk.p[:-1], t, cpl)
+    return constraint_values(topo.ct, P.get("screw_lead", jnp.zeros(0)), mk.r, mk.R, bk.p[:-1], t, cpl, P)
 
 
 def mass_action(system: System, q, qdd):

@@ -18,7 +18,9 @@ class Motion:
     """Imposed motion of a joint coordinate (a rheonomic constraint; Adams MOTION).
 
     Give exactly one of ``displacement(t)`` [m or rad], ``velocity(t)`` or ``acceleration(t)``
-    (JAX-traceable functions of time). The coordinate is that of the joint's marker I relative
+    (JAX-traceable functions of time, or of ``(t, state)`` where ``state.variable(name)`` reads a
+    design variable: a :class:`~proleg.model.laws.SplineLaw`, ``Step5Chain`` or ``FourierLaw``,
+    whose knots a study then sweeps without recompiling). The coordinate is that of the joint's marker I relative
     to J: the angle about z_J for a Revolute/Cylindrical (``dof="rotation"``) or the translation
     along z_J for a Prismatic/Cylindrical (``dof="translation"``). Velocity and acceleration
     forms are integrated from the modelled pose (20-point Gauss-Legendre, exact for polynomials
@@ -77,16 +79,33 @@ class Motion:
         self.equations = [("drv", rot, self.function(), "angle" if rot else "translation")]
 
     def function(self):
+        """The displacement law: ``f(t)``, or ``f(t, state)`` when the given function reads the
+        state's design variables (a law of two arguments)."""
         import jax.numpy as jnp
+
+        from .forces import _callable_arity
 
         if self.displacement is not None:
             return self.displacement
         x, w = jnp.asarray(_GL_X), jnp.asarray(_GL_W)
+        g = self.velocity if self.velocity is not None else self.acceleration
+        if _callable_arity(g) >= 2:
+            def f(tt, s):
+                return g(tt, s)
+        else:
+            def f(tt, s):
+                return g(tt)
         if self.velocity is not None:
-            f = self.velocity
-            return lambda t: t * jnp.sum(w * jnp.stack([jnp.asarray(f(t * xi)) for xi in _GL_X]))
-        f, v0 = self.acceleration, self.initial_velocity
-        return lambda t: v0 * t + t * t * jnp.sum(w * (1.0 - x) * jnp.stack([jnp.asarray(f(t * xi)) for xi in _GL_X]))
+            def disp(t, s=None):
+                return t * jnp.sum(w * jnp.stack([jnp.asarray(f(t * xi, s)) for xi in _GL_X]))
+        else:
+            v0 = self.initial_velocity
+
+            def disp(t, s=None):
+                return v0 * t + t * t * jnp.sum(w * (1.0 - x) * jnp.stack([jnp.asarray(f(t * xi, s)) for xi in _GL_X]))
+        if _callable_arity(g) >= 2:
+            return lambda t, s: disp(t, s)
+        return lambda t: disp(t)
 
     def __repr__(self):
         return f"Motion({self.name!r})"
@@ -218,7 +237,8 @@ class PID:
     the measurement, no kick). u drives ``actuator`` (a JointActuator, TranslationalActuator or
     HydraulicActuator, by name); with a cylinder, the force command is u / ``lever_arm(θ)`` [m]
     (a float or a function of θ). Without ``actuator`` the PID applies u on its own joint.
-    ``setpoint``: a constant or a function of t; ``None`` holds the initial coordinate.
+    ``setpoint``: a constant, a function of t, or of ``(t, state)`` (a design-variable law such
+    as :class:`~proleg.model.laws.SplineLaw`); ``None`` holds the initial coordinate.
     ``output_limit`` clips u.
     """
 

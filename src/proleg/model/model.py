@@ -181,6 +181,18 @@ class Model:
         self.variables[name] = (finite_scalar(f"Variable '{name}'", value, unit=unit), unit, description)
         return name
 
+    def add_law(self, law):
+        """Add a motion law whose knots or coefficients are design variables
+        (:class:`~proleg.model.laws.SplineLaw`, :class:`~proleg.model.laws.Step5Chain`,
+        :class:`~proleg.model.laws.FourierLaw`): registers its variables; returns the law, to
+        give to a Motion, a PID set point or an actuator's effort."""
+        from .laws import AbstractLaw
+
+        if not isinstance(law, AbstractLaw):
+            raise ModelError(f"add_law expects a SplineLaw, Step5Chain or FourierLaw, got {law!r}.")
+        self._claim("Law", law.name, law)
+        return law.add_to(self)
+
     def add_coupler(self, coupler):
         """Add a :class:`~proleg.model.couplers.Coupler` (θ₁ = r θ₂ between two joints' coordinates)."""
         from .couplers import Coupler

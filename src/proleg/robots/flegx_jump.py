@@ -91,6 +91,11 @@ class MotionLaw:
     retract_delay: float = 0.03
     t_retract: float = 0.15
     t_after: float = 0.6  # simulated time after the end of the push
+    #: True: the push duration and the extended pose are the model's design variables
+    #: ``law_t_push`` [s], ``law_extend_hip`` and ``law_extend_knee`` [rad] (initial values
+    #: ``t_push`` and ``extend``), which a study sweeps or optimises without recompiling
+    #: (:mod:`proleg.robots.flegx_codesign`); the flight retraction follows the push's end
+    design: bool = False
 
     @property
     def landing_pose(self):
@@ -115,14 +120,32 @@ class MotionLaw:
         return ((ts, ts + self.t_squat, self.stand, self.squat), (tp, tp + self.t_push, self.squat, self.extend),
                 (tr, tr + self.t_retract, self.extend, self.landing_pose))
 
-    def angle(self, k: int, t):
-        """θ_k(t) [rad] (k = 0 hip, 1 knee), JAX-traceable."""
+    def angle(self, k: int, t, state=None):
+        """θ_k(t) [rad] (k = 0 hip, 1 knee), JAX-traceable; with ``design`` the push's duration
+        and extended pose are read from ``state.variable`` (its design variables)."""
         from ..fn import step
 
+        if not (self.design and state is not None):
+            knots = self._knots()
+        else:
+            t_push = state.variable("law_t_push")
+            extend = (state.variable("law_extend_hip"), state.variable("law_extend_knee"))
+            ts, tp = self.t_settle, self.push_start
+            tr = tp + t_push + self.retract_delay
+            land = self.landing_pose if self.land is not None else self.stand
+            knots = ((ts, ts + self.t_squat, self.stand, self.squat), (tp, tp + t_push, self.squat, extend),
+                     (tr, tr + self.t_retract, extend, land))
         out = self.stand[k]
-        for a, b, p0, p1 in self._knots():
+        for a, b, p0, p1 in knots:
             out = out + step(t, a, 0.0, b, p1[k] - p0[k])
         return out
+
+    def add_variables(self, model):
+        """Register the design variables of a ``design`` law on ``model`` (once)."""
+        for name, value, unit in (("law_t_push", self.t_push, "s"), ("law_extend_hip", self.extend[0], "rad"),
+                                  ("law_extend_knee", self.extend[1], "rad")):
+            if name not in model.variables:
+                model.add_variable(name, value, unit, "FLEGX jump law (flegx_jump.MotionLaw, design=True)")
 
     def validate(self):
         """ModelError for bad timings or a pose outside the joint ranges."""
@@ -227,18 +250,30 @@ def _add_motions(model, law: MotionLaw):
     s1, s2 = info.stand
     if abs(law.stand[0] - s1) > 1e-12 or abs(law.stand[1] - s2) > 1e-12:
         raise ModelError("flegx_jump: the motion law's stand pose must be the model's modelled pose (flegx(stand=...)).")
-    hip = lambda t: law.angle(0, t) - s1  # noqa: E731
-    if info.knee_drive == "tendon":
-        knee, knee_joint = (lambda t: law.angle(0, t) + law.angle(1, t) - s1 - s2), "knee_wheel"
+    if law.design:  # f(t, state): the law's variables read from the System (no recompiling)
+        law.add_variables(model)
+        hip = lambda t, st: law.angle(0, t, st) - s1  # noqa: E731
+        if info.knee_drive == "tendon":
+            knee, knee_joint = (lambda t, st: law.angle(0, t, st) + law.angle(1, t, st) - s1 - s2), "knee_wheel"
+        else:
+            knee, knee_joint = (lambda t, st: law.angle(1, t, st) - s2), "knee"
     else:
-        knee, knee_joint = (lambda t: law.angle(1, t) - s2), "knee"
+        hip = lambda t: law.angle(0, t) - s1  # noqa: E731
+        if info.knee_drive == "tendon":
+            knee, knee_joint = (lambda t: law.angle(0, t) + law.angle(1, t) - s1 - s2), "knee_wheel"
+        else:
+            knee, knee_joint = (lambda t: law.angle(1, t) - s2), "knee"
     if info.gears == "worm":
         from ..drives.gears import WormGear
 
         wg = WormGear(**D.WORM)
         a = wg.ratio * 0.5 * wg.worm_pitch_diameter  # s = n r1 θ
-        model.add_motion(Motion("hip_motion", "hip_worm", displacement=lambda t: a * hip(t)))
-        model.add_motion(Motion("knee_motion", "knee_worm", displacement=lambda t: a * knee(t)))
+        if law.design:
+            model.add_motion(Motion("hip_motion", "hip_worm", displacement=lambda t, st: a * hip(t, st)))
+            model.add_motion(Motion("knee_motion", "knee_worm", displacement=lambda t, st: a * knee(t, st)))
+        else:
+            model.add_motion(Motion("hip_motion", "hip_worm", displacement=lambda t: a * hip(t)))
+            model.add_motion(Motion("knee_motion", "knee_worm", displacement=lambda t: a * knee(t)))
     else:
         model.add_motion(Motion("hip_motion", "hip", displacement=hip))
         model.add_motion(Motion("knee_motion", knee_joint, displacement=knee))

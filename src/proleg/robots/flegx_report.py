@@ -225,6 +225,10 @@ def _jump_findings(outs) -> str:
 # ------------------------------------------------------------------------------------------
 # flegx-machinery
 # ------------------------------------------------------------------------------------------
+#: the pushes [s] the machinery run's law is searched among (flegx_codesign.push_at_limits)
+MACHINERY_PUSHES = (0.22, 0.27, 0.32, 0.38)
+
+
 def run_machinery(out_dir="results/flegx-machinery", progress: bool = True, workers: int | None = None) -> Path:
     """Worm-gear model (seed 002 §III.C, Fig. 4): a ≈ 50 mm jump with take-off and landing, worm vs ideal gears."""
     from ..report.html import Report
@@ -233,12 +237,15 @@ def run_machinery(out_dir="results/flegx-machinery", progress: bool = True, work
     wall0 = time.perf_counter()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    # a slower push than flegx-jump's, away from the leg's bounce period, tuned with worm gears in the dynamics
-    # (measured 2026-11-25; Fig. 4: 50 mm, 447 MPa, ≈ 32 mm): t_push 0.32 s: 47.6 mm, 437 MPa, 30.4 mm (chosen);
-    # 0.35 s: 53.0 mm, 402 MPa, 28.0 mm; extend (-22°, 44°) with 0.30 s: 47.2 mm, 483 MPa (447 at take-off), 33.4 mm
-    # (one clean flight). With 0.32 s the foot first leaves at 1.18 s and touches again at 1.33 s while the leg still
-    # extends; the apex (guide 1.41 s) is in the flight from 1.38 s.
-    law = dict(extend=(-20.0 * deg, 40.0 * deg), t_push=0.32)
+    # the push is not picked by hand: the shortest push within 520 MPa up to take-off and the 77 N m wheel rating,
+    # found with worm gears in the dynamics by flegx_codesign.push_at_limits (its binding constraint is reported)
+    from ..errors import ModelError
+    from .flegx_codesign import push_at_limits
+
+    found = push_at_limits(4, 2, "cb", gears="worm", pushes=MACHINERY_PUSHES, store=out / "codesign")
+    if "t_push_s" not in found:
+        raise ModelError(f"flegx-machinery: no push in {MACHINERY_PUSHES} s meets the limits ({found['binding']}); widen the grid.")
+    law = dict(extend=(-20.0 * deg, 40.0 * deg), t_push=float(found["t_push_s"]))
     jobs = [dict(tag=g, configuration=4, link_case=2, link_model="cb", gears=g, dt_output=1e-3, animate=g == "worm", **law)
             for g in ("worm", "ideal")]
     outs = run_jobs(jobs, workers, progress)
@@ -257,7 +264,10 @@ def run_machinery(out_dir="results/flegx-machinery", progress: bool = True, work
         "friction (drives.gears.worm_mesh: f = 0.14 static / 0.13 dynamic, Eq. 16 efficiency η = 0.59-0.61 worm driving, "
         "η_back = 0.34-0.39 wheel driving; FLEGX's worm would self-lock only above f = 0.217); the torque at the worm is the "
         "motor's (the motion's effort), the loss is the mesh's friction power f W v_s. With ideal gears the wheels are "
-        "driven directly and the worm torque is the wheel torque / 9.67.")
+        "driven directly and the worm torque is the wheel torque / 9.67. "
+        f"The push ({law['t_push']:.3f} s) is not picked by hand: it is the shortest push among {list(MACHINERY_PUSHES)} s "
+        "(interpolated between them) at which the stress up to take-off stays within 520 MPa and each wheel torque within "
+        f"its 77 N m rating, with worm gears in the dynamics (flegx_codesign.push_at_limits); binding: {found['binding']}.")
     rep.add_heading("Results")
     rep.add_table(tab, "Metrics (seed 002 Fig. 4: 50 mm jump, max stress 447 MPa, tip displacement ≈ 32 mm, 12.8 % of L).",
                   float_format="{:.4g}", index=False)
@@ -306,10 +316,39 @@ def study_table(rows: pd.DataFrame) -> pd.DataFrame:
     })
 
 
+def _codesign_section(out: Path, configurations, extra: list) -> str:
+    """The reduced co-design of each configuration (PRBM, case 2), its table written to
+    ``out/codesign.parquet``; returns the ranking sentence, every number from the run."""
+    import pandas as pd
+
+    from .flegx_codesign import CONSTRAINTS, push_at_limits, ranking_text
+
+    rows = []
+    for c in configurations:
+        r = push_at_limits(c, 2, "prbm", store=out / "codesign" / f"no{c}")
+        r.pop("grid")
+        rows.append(r)
+    df = pd.DataFrame(rows)
+    df.to_parquet(out / "codesign.parquet", index=False)
+    lim = ", ".join(f"{k} {op} {b / 1e6:g} MPa" if "stress" in k else f"{k} {op} {b:g} N m" for k, (op, b) in CONSTRAINTS.items())
+    for _, r in df.iterrows():
+        if "jump_mm" in r and r["jump_mm"] == r["jump_mm"]:
+            extra.append(f"- Co-design No. {int(r['configuration'])}: push {r['t_push_s']:.3f} s → {r['jump_mm']:.1f} mm at "
+                         f"{r['stress_takeoff_MPa']:.0f} MPa, hip {r['peak_hip_Nm']:.1f} N m, knee {r['peak_knee_Nm']:.1f} N m; "
+                         f"binding: {r['binding']} (paper: {r['paper_jump_mm']:.1f} mm at {r['paper_stress_MPa']:.1f} MPa).")
+        else:
+            extra.append(f"- Co-design No. {int(r['configuration'])}: {r['binding']}.")
+    return (f"- Co-design (PRBM, case 2; the push duration of each configuration found within {lim}, "
+            "flegx_codesign.push_at_limits): " + ranking_text(df) + ".")
+
+
 def run_study(out_dir="results/flegx-study", progress: bool = True, workers: int | None = None, configurations=(1, 2, 3, 4),
-              cases=(1, 2, 3, 4, 5, 6)) -> Path:
+              cases=(1, 2, 3, 4, 5, 6), codesign: bool = True) -> Path:
     """Configurations No. 1-4 × link cases 1-6 (PRBM) + the CB link for case 2: Table I, as
-    :class:`proleg.study.Study` groups (``flegx_study``), stored in ``out_dir/store`` (resumable)."""
+    :class:`proleg.study.Study` groups (``flegx_study``), stored in ``out_dir/store`` (resumable).
+    With ``codesign`` each configuration's push is also found by the reduced co-design of
+    :func:`proleg.robots.flegx_codesign.push_at_limits` (PRBM, case 2: the shortest push within
+    520 MPa and the 77 N m wheel rating), stored in ``out_dir/codesign``."""
     import resource
 
     from ..report.html import Report
@@ -372,12 +411,13 @@ def run_study(out_dir="results/flegx-study", progress: bool = True, workers: int
                          "heights at about equal stress, and ours at an equal law. With imposed joint motions a rigid leg's take-off "
                          "speed does not depend on its mass; the configurations differ only through the strip's dynamics (a "
                          "heavier leg bends the strip more and the push then lands elsewhere on its bounce period), and through "
-                         "the mass split, which Table I does not print (assumed: flegx_data). At equal stress the paper's ranking "
-                         "comes back but for its top two: bench/flegx.py --equal-stress (PRBM, case 2, pushes 0.22/0.26/0.30 s, "
-                         "measured 2026-11-25) gives at 520 MPa No. 4 144.5 mm > No. 3 136.2 mm > No. 1 120.0 mm > No. 2 (already "
-                         "585 MPa with the gentlest push, 106 mm; ≈ 52 mm at 520 MPa extrapolated); Table I: No. 3 108.1 > No. 4 "
-                         "104.1 > No. 1 70.9 > No. 2 59.8 mm (No. 3 and 4 within 4 % in the paper, 6 % here, swapped).")
+                         "the mass split, which Table I does not print (assumed: flegx_data). The co-design section below "
+                         "gives each configuration its own push, found within the stress limit and the wheel rating.")
             break
+    if codesign:
+        extra: list = []
+        lines.append(_codesign_section(out, configurations, extra))
+        lines += extra
     flagged = tab[tab["> 510 MPa"]]
     lines.append(f"- Over 510 MPa up to take-off: {len(flagged)} of {len(tab)} variants"
                  + (": " + ", ".join(f"No. {r['configuration']} case {r['link case']} {r['link model']}" for _, r in flagged.iterrows()) if len(flagged) else "") + ".")

@@ -2,7 +2,7 @@
 trials run through the study's executor and store; and a gradient-based local refinement
 (``jax.jacfwd`` through the simulation, L-BFGS-B in the unit box).
 
-Resuming: with a store the trials live in ``STORE/optuna.db`` (optuna's RDB storage) under a
+proleg's own CMA-ES (``sampler="cma"``) is :mod:`proleg.study.cma`. Resuming: with a store the trials live in ``STORE/optuna.db`` (optuna's RDB storage) under a
 name derived from the study's definition and the objective; a rerun continues from the trials
 told, and trials asked but never told (a killed driver) are evaluated again (their rows, if
 stored, are found in the store and not recomputed).
@@ -13,25 +13,14 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 
 from ..errors import ModelError
+from .results import OptimizationResult as OptimizationResult
+from .results import to_unit as to_unit
 from .space import Choice, Fixed, LogRange, Range
-
-
-@dataclass
-class OptimizationResult:
-    """``best_params`` {name: value}, ``best_value`` (one objective) or ``best_trials`` (several),
-    ``trials`` (optuna's trials table), ``rows`` (the evaluated study rows) and the optuna study."""
-
-    best_params: dict
-    best_value: float | list | None
-    trials: pd.DataFrame
-    rows: pd.DataFrame
-    optuna_study: object
 
 
 def _distributions(space):
@@ -67,13 +56,16 @@ def _constraint_values(constraints, row) -> list[float]:
 
 
 def optimize(study, objective, constraints=None, n_trials: int = 50, *, sampler="tpe", direction="minimize",
-             seed: int | None = 0, batch: int = 4, executor=None, store=None, storage=None, progress=None, enqueue=None,
+             seed: int | None = 0, batch: int | None = None, executor=None, store=None, storage=None, progress=None, enqueue=None,
              n_startup_trials: int | None = None, **run_kw) -> OptimizationResult:
     """Optimise ``objective`` (an output name, a function of a row, or a list of them for a
     Pareto front) over the study's space in ``n_trials`` trials, ``batch`` trials per executor
-    batch. ``constraints``: {output: ("<=", value) | (">=", value)} or a function of a row
+    batch (default 4). ``constraints``: {output: ("<=", value) | (">=", value)} or a function of a row
     returning values that are feasible when ≤ 0 (optuna's constraints_func; TPE and NSGA-II).
-    ``sampler``: "tpe", "cmaes", "nsga2" or an optuna sampler. ``enqueue``: parameter dicts
+    ``sampler``: "tpe", "cmaes" (optuna's CMA-ES), "nsga2", "cma" or an optuna sampler. "cma"
+    is proleg's CMA-ES (:mod:`proleg.study.cma`) for optima on a bound (a force at its rating:
+    co-design) and with constraints (a feasibility-first penalty), resumed by replay from the
+    store; ``batch`` is its population. ``enqueue``: parameter dicts
     evaluated as the first trials of a new optimisation (e.g. the current design);
     ``n_startup_trials``: TPE's random trials before it models (default n_trials / 3, 2 to 10)."""
     import optuna
@@ -98,14 +90,21 @@ def optimize(study, objective, constraints=None, n_trials: int = 50, *, sampler=
             smp = optuna.samplers.TPESampler(seed=seed, constraints_func=cf, n_startup_trials=n0)
         elif sampler == "cmaes":
             if constraints is not None:
-                raise ModelError("optimize: optuna's CMA-ES sampler takes no constraints; use sampler='tpe' (or 'nsga2').")
+                raise ModelError("optimize: optuna's CMA-ES sampler takes no constraints; use sampler='cma' (proleg's "
+                                 "CMA-ES, constraints as a feasibility-first penalty), 'tpe' or 'nsga2'.")
             smp = optuna.samplers.CmaEsSampler(seed=seed)
+        elif sampler == "cma":
+            from .cma import optimize_cma
+
+            return optimize_cma(study, objective, constraints, n_trials, direction=direction, seed=seed, batch=batch,
+                                executor=executor, store=store, progress=progress, enqueue=enqueue, **run_kw)
         elif sampler == "nsga2":
             smp = optuna.samplers.NSGAIISampler(seed=seed, constraints_func=cf)
         else:
-            raise ModelError(f"optimize: unknown sampler '{sampler}'; valid: 'tpe', 'cmaes', 'nsga2' or an optuna sampler.")
+            raise ModelError(f"optimize: unknown sampler '{sampler}'; valid: 'tpe', 'cmaes', 'nsga2', 'cma' or an optuna sampler.")
     else:
         smp = sampler
+    batch = batch or 4
     tag = json.dumps({"def": study.definition(), "obj": [o if isinstance(o, str) else getattr(o, "__name__", "fn") for o in objs],
                       "dirs": dirs, "sampler": sampler if isinstance(sampler, str) else type(sampler).__name__, "seed": seed}, sort_keys=True, default=str)
     name = "proleg-" + hashlib.sha1(tag.encode()).hexdigest()[:12]
@@ -167,78 +166,9 @@ def optimize(study, objective, constraints=None, n_trials: int = 50, *, sampler=
     return OptimizationResult(bp, bv, ost.trials_dataframe(), rows, ost)
 
 
-def _objective_fn(study, names, start, objective):
-    """u (d,) in the unit box → the objective (traceable)."""
-    import jax.numpy as jnp
+def refine(study, start, objective: str, **kw) -> dict:
+    """Gradient refinement through the simulation, with constraints and a resumable store:
+    :func:`proleg.study.codesign.refine`."""
+    from .codesign import refine as _refine
 
-    from ..analyses.simulate import simulate, simulate_kwargs
-    from ..assembly.system import System
-
-    dims = [study.space.dims[k] for k in names]
-    fn = study.outputs[objective]
-    apply = study.apply or System.with_params
-    kw = simulate_kwargs(study.simulate)
-
-    def values(u):
-        vals = dict(start)
-        for j, (k, d) in enumerate(zip(names, dims)):
-            if isinstance(d, LogRange):
-                a, b = math.log10(d.lo), math.log10(d.hi)
-                vals[k] = 10.0 ** (a + (b - a) * u[j])
-            else:
-                vals[k] = d.lo + (d.hi - d.lo) * u[j]
-        return vals
-
-    def f(u):
-        sysv = apply(study.target, {k: jnp.asarray(v, jnp.float64) for k, v in values(u).items()})
-        r = simulate(sysv, progress=False, throw=False, **kw)
-        return jnp.asarray(fn(r), jnp.float64).reshape(())
-
-    return f, values
-
-
-def to_unit(study, names, vals):
-    out = []
-    for k in names:
-        d = study.space.dims[k]
-        x = float(vals[k])
-        if isinstance(d, LogRange):
-            out.append((math.log10(x) - math.log10(d.lo)) / (math.log10(d.hi) - math.log10(d.lo)))
-        else:
-            out.append((x - d.lo) / (d.hi - d.lo))
-    return np.clip(np.array(out), 0.0, 1.0)
-
-
-def refine(study, start, objective: str, *, direction="minimize", maxiter: int = 20) -> dict:
-    """Refine ``start`` ({name: value}, or an :class:`OptimizationResult`: its best trial) by
-    L-BFGS-B on the study's continuous parameters (in the unit box of their ranges), with the
-    objective's gradient by ``jax.jacfwd`` through the simulation. Returns {"params", "value",
-    "start_value", "iterations"}."""
-    import jax
-    from scipy.optimize import minimize
-
-    if isinstance(start, OptimizationResult):
-        if not start.best_params:
-            raise ModelError("refine: the optimisation has no completed trial to start from.")
-        start = start.best_params
-
-    if study.kind != "system":
-        raise ModelError(f"refine: a {study.kind} study is not differentiable through its {study.kind}; refine needs a System study.")
-    if objective not in study.outputs:
-        raise ModelError(f"refine: objective '{objective}' is not an output; outputs: {list(study.outputs)}.")
-    names = study.space.continuous
-    if not names:
-        raise ModelError("refine: the space has no continuous parameter to refine.")
-    sign = 1.0 if direction == "minimize" else -1.0
-    f, values = _objective_fn(study, names, {k: start[k] for k in study.space.dims}, objective)
-    fg = jax.jit(lambda u: (f(u), jax.jacfwd(f)(u)))
-
-    def fun(u):
-        val, g = fg(np.asarray(u, float))
-        return sign * float(val), sign * np.asarray(g, float)
-
-    u0 = to_unit(study, names, start)
-    v0 = fun(u0)[0] * sign
-    res = minimize(fun, u0, jac=True, bounds=[(0.0, 1.0)] * len(names), method="L-BFGS-B", options={"maxiter": maxiter})
-    best = {k: float(v) if not isinstance(v, str) else v for k, v in values(res.x).items()}
-    return {"params": best, "value": float(res.fun) * sign, "start_value": v0, "iterations": int(res.nit)}
+    return _refine(study, start, objective, **kw)

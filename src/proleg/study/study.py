@@ -266,8 +266,9 @@ class Study:
         return optimize(self, objective, constraints, n_trials, **kw)
 
     def refine(self, start, objective: str, **kw):
-        """Gradient-based local refinement from ``start`` (parameters, or the result of
-        :meth:`optimize`: from its best trial) (:func:`proleg.study.optimize.refine`)."""
+        """Gradient-based refinement from ``start`` (parameters, or the result of
+        :meth:`optimize`: from its best trial), with ``constraints={output: ("<=", bound)}`` on
+        any output and a resumable ``store`` (:func:`proleg.study.codesign.refine`)."""
         from .optimize import refine
 
         return refine(self, start, objective, **kw)
