@@ -26,18 +26,30 @@ def system():
     [
         (dict(rtol=1e-8, atol=1e-9), dict(integrator=pl.GeneralizedAlpha(rtol=1e-8, atol=1e-9)), "GeneralizedAlpha(rtol"),
         (dict(dt_max=1e-3), dict(integrator=pl.GeneralizedAlpha(dt_max=1e-3)), "GeneralizedAlpha(dt_max"),
-        (dict(chunk=4), dict(run=pl.RunOptions(chunk=4)), "RunOptions(chunk"),
+        (dict(chunk=4), dict(integrator=pl.GeneralizedAlpha(), run=pl.RunOptions(chunk=4)), "RunOptions(chunk"),
     ],
 )
 def test_old_keywords_warn_and_give_the_same_run(system, old, new, place):
+    """Flat options beside a NAMED integrator are deprecated (they belong to the object)."""
     with pytest.warns(DeprecationWarning, match=place.replace("(", r"\(")):
-        a = pl.simulate(system, 0.1, 0.01, progress=False, **old)
+        a = pl.simulate(system, 0.1, 0.01, progress=False, integrator=pl.GeneralizedAlpha(), **old)
     with warnings.catch_warnings():
         warnings.simplefilter("error", DeprecationWarning)
         b = pl.simulate(system, 0.1, 0.01, progress=False, **new)
     assert a.stats == b.stats
     np.testing.assert_array_equal(np.asarray(a.q), np.asarray(b.q))
     assert a.integrator == b.integrator
+
+
+def test_flat_tolerances_without_an_integrator_go_to_auto(system):
+    """simulate(rtol=...) with no integrator named is the tolerance request of "auto": no
+    warning, the method chosen carries it (a pin: Tsit5), the same run as Auto(rtol=...)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
+        a = pl.simulate(system, 0.1, 0.01, progress=False, rtol=1e-9, atol=1e-10)
+        b = pl.simulate(system, 0.1, 0.01, progress=False, integrator=pl.Auto(rtol=1e-9, atol=1e-10))
+    assert isinstance(a.integrator, pl.Tsit5) and a.integrator.rtol == 1e-9 and a.integrator.atol == 1e-10
+    np.testing.assert_array_equal(np.asarray(a.q), np.asarray(b.q))
 
 
 def test_hht_carries_its_options_and_saveat_equals_output_times(system):
@@ -75,4 +87,4 @@ def test_the_old_keywords_fail_the_suite_outside_pytest_warns(system):
     """pyproject.toml's filterwarnings makes proleg's own deprecations errors in the test suite, so
     that no test slips back to the old spellings (the run stops before anything is compiled)."""
     with pytest.raises(DeprecationWarning, match="simulate\\(rtol=...\\) is deprecated and will be removed in the next release"):
-        pl.simulate(system, 0.1, 0.01, progress=False, rtol=1e-7)
+        pl.simulate(system, 0.1, 0.01, progress=False, integrator=pl.GeneralizedAlpha(), rtol=1e-7)

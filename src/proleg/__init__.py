@@ -127,7 +127,9 @@ from .model.parts import Part as Part
 from .assembly.system import System as System
 from .assembly.assemble import assemble as assemble
 from .solvers.galpha import HHT as HHT
-from .solvers.galpha import AbstractIntegrator as AbstractIntegrator
+from .solvers.auto import Auto as Auto
+from .solvers.base import AbstractIntegrator as AbstractIntegrator
+from .solvers.galpha import AbstractAlphaIntegrator as AbstractAlphaIntegrator
 from .solvers.galpha import GeneralizedAlpha as GeneralizedAlpha
 from .solvers.ode import Dopri5 as Dopri5
 from .solvers.ode import Kvaerno5 as Kvaerno5

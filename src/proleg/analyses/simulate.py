@@ -1,9 +1,10 @@
-"""Dynamic simulation (Adams SIMULATE/DYNAMIC): consistent initial conditions, then the
-error-controlled implicit integrator over the requested output times."""
+"""Dynamic simulation (Adams SIMULATE/DYNAMIC): the driver over the integrator protocol
+(solvers/base.py). It checks the arguments, picks the method (``integrator="auto"``,
+solvers/auto.py) or takes the one named, hands it a :class:`~proleg.solvers.base.RunRequest`
+and turns its :class:`~proleg.solvers.base.Solution` into a :class:`Result`."""
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import math
 import sys
@@ -13,14 +14,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..assembly.coordinates import coordinate_set
 from ..assembly.system import System
 from ..errors import Interrupted, ModelError, SolverError, Status
-from .. import compile_cache
-from ..compile_cache import cached_jit
-from ..solvers.driver import DriverOptions, knot
-from ..solvers.driver import advance as _advance_jit
-from ..solvers.galpha import GeneralizedAlpha, StepState
 from ..solvers.initial import _consistent_state, consistent_state, initial_z, sample_period  # noqa: F401 (re-exported)
 from .checks import check_simulate
 from .placement import _any_traced, placed
@@ -118,14 +113,17 @@ def simulate_options(integrator=None, run=None, *, warn: bool = False, **flat):
     :class:`RunOptions`; returns (integrator, run). For option dictionaries from files (a study's
     or model file's ``simulate:`` section), where flat keys are the format; :func:`simulate`
     itself accepts them for one release with a DeprecationWarning (``warn=True``)."""
-    integrator = integrator if integrator is not None else GeneralizedAlpha()
+    if integrator is None or isinstance(integrator, str):
+        from ..solvers.auto import Auto
+
+        integrator = Auto()
     run = run if run is not None else RunOptions()
     unknown = sorted(set(flat) - set(_INTEGRATOR_KEYS) - set(_RUN_KEYS) - {"jacobian_refresh"})
     if unknown:
         raise TypeError(f"simulate() got unexpected keyword argument(s) {unknown}.")
     integ = {k: flat[k] for k in _INTEGRATOR_KEYS if k in flat}
     if "jacobian_refresh" in flat:  # False forced a fresh matrix every step: no reuse
-        integ["jacobian_reuse"] = bool(integ.get("jacobian_reuse", integrator.jacobian_reuse) and flat["jacobian_refresh"])
+        integ["jacobian_reuse"] = bool(integ.get("jacobian_reuse", getattr(integrator, "jacobian_reuse", False)) and flat["jacobian_refresh"])
     runk = {k: flat[k] for k in _RUN_KEYS if k in flat}
     if warn:
         import warnings
@@ -138,7 +136,7 @@ def simulate_options(integrator=None, run=None, *, warn: bool = False, **flat):
                 new = ", ".join(f"{'jacobian_reuse' if k == 'jacobian_refresh' else k}=..." for k in keys)
                 warnings.warn(
                     f"simulate({', '.join(k + '=...' for k in keys)}) is deprecated and will be removed in the next "
-                    f"release: pass {arg}={cls}({new}).", DeprecationWarning, stacklevel=4,
+                    f"release: pass {arg}={cls}({new}).", DeprecationWarning, stacklevel=5,
                 )
     if integ:
         integrator = dataclasses.replace(integrator, **integ)
@@ -169,7 +167,7 @@ def simulate(
     t0: float = 0.0,
     output_times=None,
     saveat: SaveAt | None = None,
-    integrator=None,
+    integrator="auto",
     coordinates: str = "auto",
     q0=None,
     v0=None,
@@ -178,7 +176,7 @@ def simulate(
     throw: bool | None = None,
     on_chunk=None,
     store=None,
-    **deprecated,
+    **options,
 ) -> Result:
     """Integrate ``system`` from ``t0`` to ``t_end``; outputs every ``dt_output`` (or at ``output_times``).
 
@@ -188,14 +186,17 @@ def simulate(
     dt_output : float [s], optional — output spacing (default (t_end − t0)/500); or
         ``output_times`` (strictly increasing [s]), or ``saveat=SaveAt(dt=..., times=...)``.
         Outputs do not limit the steps: they come from the steps' dense output.
-    integrator : :class:`GeneralizedAlpha` (default, ρ∞ = 0.8) or :class:`HHT`, carrying its
-        options: tolerances, step limits, fixed step, Newton settings
-        (:class:`proleg.solvers.galpha.AbstractIntegrator`), e.g.
-        ``GeneralizedAlpha(rtol=1e-8, atol=1e-9, dt_max=1e-3)``; or :class:`Tsit5`, :class:`Dopri5`,
-        :class:`Kvaerno5` (order 5, Diffrax, error control on positions and velocities) for
-        loop-free trees, which run in joint coordinates (solvers/ode.py, analyses/ode.py); or
-        :class:`Radau5` (order 5, implicit, the index-2 constrained equations in any coordinates:
-        closed loops, stiff models; solvers/radau.py)
+    integrator : "auto" (default: :class:`proleg.Auto` picks the method from the model —
+        solvers/auto.py has the table: Tsit5 on joint coordinates for smooth loop-free trees,
+        Radau5 for closed loops at tight tolerances, generalized-α for contacts, stiff and
+        switching elements, controllers and flexible bodies), or any
+        :class:`proleg.AbstractIntegrator` carrying its options:
+        :class:`GeneralizedAlpha`, :class:`HHT`, :class:`Tsit5`, :class:`Dopri5`,
+        :class:`Kvaerno5`, :class:`Radau5`, or your own subclass (solvers/base.py).
+        ``result.stats["integrator"]`` says what ran and why.
+    rtol, atol, dt_init, dt_min, dt_max, fixed_step : options for the method ``"auto"`` picks
+        (:class:`proleg.Auto`), e.g. ``simulate(system, 1.0, rtol=1e-9)``. With a named
+        integrator they are deprecated (one release): give them to the integrator object.
     store : path, optional — stream the outputs to a Parquet dataset (a folder of one file per
         chunk, each written atomically) as the run goes; ``pandas.read_parquet(store)`` reads what
         was finished even if the process died (:class:`proleg.analyses.result.ChunkStore`);
@@ -206,9 +207,8 @@ def simulate(
         every part to a plane: ``system.topo.planar`` says whether and why) on 3 coordinates per
         part, an exact reduction, several times faster; "joint" runs joint coordinates of the
         joints' spanning tree (assembly/joint_coordinates.py); results are always absolute.
-        ``result.coordinates`` says which ran. "auto" never picks "joint": measured slower
-        including compile on every model tried (assembly/coordinates.py ``auto_coordinates``
-        has the figures).
+        ``result.coordinates`` says which ran. The order-5 ODE methods always run on joint
+        coordinates.
     q0, v0 : initial coordinates and velocities (default: the modelled pose and velocities),
         made consistent with the constraints
     run : :class:`RunOptions` (progress, throw, on_chunk, chunk, free_running); ``progress``,
@@ -217,51 +217,25 @@ def simulate(
         GPU, which is ~8× slower for one variant; inside ``jit``/``vmap`` JAX places it), a
         platform name ("cpu", "gpu", ...), "default", or a ``jax.Device`` (analyses/placement.py)
 
-    The keywords ``rtol, atol, atol_p, dt_init, dt_min, dt_max, fixed_step, max_newton,
-    jacobian_reuse, jacobian_refresh, lu_per_lane`` (now options of the integrator) and
-    ``chunk, free_running`` (now :class:`RunOptions`) still work for one release, with a
-    DeprecationWarning naming the new place.
-
     Works under ``jax.vmap`` and ``jax.jacfwd`` (the Python loop over chunks is static).
     """
-    times = saveat.times if saveat is not None else output_times  # the Radau5 and ODE paths' output request
+    from ..solvers.auto import Auto
+    from ..solvers.base import AbstractIntegrator, RunRequest
+
+    times_in = saveat.times if saveat is not None else output_times
     dt_out = saveat.dt if saveat is not None else dt_output
-    if getattr(integrator, "dae", False):  # Radau5: index-2 constrained equations (analyses/radau.py)
-        from .radau import simulate_radau
-
-        check_simulate(system, dict(t_end=t_end, dt_output=dt_out, t0=t0, output_times=times, q0=q0, v0=v0))
-        if deprecated:
-            raise ModelError(f"simulate: {sorted(deprecated)} are not keywords of simulate with Radau5: give them to the "
-                             "integrator object, e.g. Radau5(rtol=1e-8, dt_max=1e-3).")
-        return simulate_radau(system, t_end, dt_out, t0=t0, output_times=times, integrator=integrator, coordinates=coordinates,
-                              q0=q0, v0=v0, breakpoints=motion_breakpoints(system), throw=True if throw is None else throw)
-    if getattr(integrator, "ode", False):  # Tsit5, Dopri5, Kvaerno5: joint-coordinate ODE (analyses/ode.py)
-        from .ode import simulate_ode
-
-        check_simulate(system, dict(t_end=t_end, dt_output=dt_out, t0=t0, output_times=times, q0=q0, v0=v0,
-                                    dt_max=deprecated.get("dt_max"), fixed_step=deprecated.get("fixed_step")))
-        unknown = sorted(set(deprecated) - {"dt_max", "fixed_step"})
-        if unknown:
-            raise ModelError(f"simulate: {unknown} are options of GeneralizedAlpha/HHT, not of {type(integrator).__name__} "
-                             "(give rtol/atol to the integrator object, e.g. Tsit5(rtol=1e-8)).")
-        return simulate_ode(
-            system, t_end, dt_out, t0=t0, output_times=times, integrator=integrator, q0=q0, v0=v0,
-            dt_max=deprecated.get("dt_max"), fixed_step=deprecated.get("fixed_step"), throw=True if throw is None else throw,
-        )
-    integrator, run = simulate_options(integrator, run, warn=True, **deprecated)
+    integrator, run = _resolve(integrator, run, options)
     ig = integrator
     check_simulate(system, dict(
-        t_end=t_end, t0=t0, dt_output=saveat.dt if saveat is not None else dt_output,
-        output_times=saveat.times if saveat is not None else output_times, q0=q0, v0=v0, store=store,
-        rtol=ig.rtol, atol=ig.atol, atol_p=ig.atol_p, dt_init=ig.dt_init, dt_min=ig.dt_min, dt_max=ig.dt_max,
-        fixed_step=ig.fixed_step, max_newton=ig.max_newton, chunk=run.chunk,
+        t_end=t_end, t0=t0, dt_output=dt_out, output_times=times_in, q0=q0, v0=v0, store=store,
+        **{k: getattr(ig, k) for k in ("rtol", "atol", "atol_p", "dt_init", "dt_min", "dt_max", "fixed_step", "max_newton") if hasattr(ig, k)},
+        chunk=run.chunk,
     ))
     progress = run.progress if progress is None else progress
     throw = run.throw if throw is None else throw
     on_chunk = run.on_chunk if on_chunk is None else on_chunk
     if store is not None:
         on_chunk = ChunkStore(store, on_chunk)
-    chunk, free_running = run.chunk, run.free_running
     if saveat is None:
         saveat = SaveAt(dt=dt_output, times=output_times)
     if saveat.times is not None:
@@ -271,144 +245,137 @@ def simulate(
         raise ValueError(f"t_end ({t_end}) must be greater than t0 ({t0}).")
     if saveat.times is None:
         times = saveat.output_times(t0, t_end)
-    fixed_step = ig.fixed_step
-    dopts = DriverOptions(
-        step=ig.step_options(),
-        dt_min=float(ig.dt_min),
-        # a static option: strip round-off so t_end changes do not recompile
-        dt_max=float(ig.dt_max if ig.dt_max is not None else f"{min(t_end - t0, 1e-2):.10g}"),
-        fixed_step=None if fixed_step is None else float(fixed_step),
-        sample_period=sample_period(system),
-        breakpoints=motion_breakpoints(system),
-    )
-    dt_init = ig.dt_init
-    integrator = ig.method  # what the compiled step depends on; the options are in dopts
+    if isinstance(ig, Auto):
+        ig, why = ig.choose(system, float(times[-1]) - t0, coordinates)
+    elif isinstance(ig, AbstractIntegrator):
+        why = "named by the caller"
+    else:
+        raise ModelError(f"simulate: integrator must be 'auto' or a proleg integrator (GeneralizedAlpha(), Tsit5(), Radau5(), ... or a "
+                         f"subclass of proleg.AbstractIntegrator), got {integrator!r}.")
+    if ig.coordinates == "joint" and coordinates not in ("auto", "joint"):
+        raise ModelError(f"simulate: {type(ig).__name__} runs on joint coordinates, but coordinates='{coordinates}' was asked for. "
+                         "Leave coordinates='auto', or use GeneralizedAlpha or Radau5 for other coordinates.")
+    traced_in = _any_traced((system.params, q0, v0))
     z0 = initial_z(system)
-    post = None
-    trail = contextlib.ExitStack()  # closed in the finally below
-    if not _any_traced((system.params, q0, v0)):
-        # the executables this run loads, for a later process to start loading early
-        trail.enter_context(compile_cache.trail(system, coordinates, integrator, dopts, len(times), run.chunk,
-                                                free_running, q0 is None, v0 is None))
-        if run.prepare_outputs:
-            post = _compile_post(system, len(times), z0)
-    try:
-        q, v, qdd, lam, z0, (pw, g0) = _consistent_state(system, q0, v0, t0, z0)
-        q_ic, v_ic = q, v
-        traced = _any_traced((system.params, q))
-        if not traced:
-            _warn_unstable_servos(system, q, v, t0, z0)
-        dyn = coordinate_set(system, q, coordinates)
-        if dyn.kind != "absolute":
-            q, v, qdd, lam, g0 = _reduced_start(dyn, q, v, qdd, lam)
-        n_newton = dyn.nq + dyn.nc
-        # Constants as NumPy arrays: JAX would compile a small executable for each eager op.
-        f64, i32 = np.float64, np.int32
-        st = StepState(
-            t=np.asarray(t0, f64), q=q, v=v, a=qdd, qdd=qdd, lam=lam,
-            h_prev=np.asarray(1.0, f64), w=np.zeros(2), pw=pw, z=z0, g=g0,
-            Jfac=(np.zeros((n_newton, n_newton)), np.arange(n_newton, dtype=i32)), jac_h=np.asarray(0.0, f64),
-            jac_ok=np.asarray(False), jac_hold=np.asarray(0, i32), jac_pen=np.asarray(0, i32),
-            jerk=np.zeros(np.shape(q)), jerk_h=np.asarray(0.0, f64),
+    post = _compile_post(system, len(times), z0) if not traced_in and run.prepare_outputs else None
+    bar = _Bar(system.topo.name, progress) if not traced_in and progress is not False else None
+    request = RunRequest(
+        t0=float(t0), times=times, q0=q0, v0=v0, coordinates=coordinates, breakpoints=motion_breakpoints(system),
+        chunk=run.chunk, free_running=run.free_running,
+        on_chunk=None if on_chunk is None else (lambda sol: on_chunk(_result(system, sol, ig, why))),
+        progress=bar, on_start=lambda q, v, z: _warn_unstable_servos(system, q, v, t0, z),
+    )
+    sol = ig.run(system, request)
+    result = _result(system, sol, ig, why)
+    if post is not None and len(result.t) == len(times):
+        result._compiled_post = post
+    traced = sol.traced_status is not None
+    if traced:  # status, failure time and counters as arrays (a Result's own fields need concrete values)
+        result.traced_status = sol.traced_status
+    else:
+        q_ic, v_ic = sol.start
+        result.initial_changes = _ic_report(system, q_ic, v_ic) if q0 is None and v0 is None else []
+        moved = [c for c in result.initial_changes if max(c["moved [m]"], c["rotated [rad]"]) > 1e-6]
+        if moved:
+            import warnings
+
+            warnings.warn(
+                f"Initial conditions of '{system.topo.name}': to satisfy the joints, proleg moved "
+                + ", ".join(f"'{c['part']}' by {c['moved [m]']:.3g} m / {c['rotated [rad]']:.3g} rad" for c in moved)
+                + " from the modelled pose (result.initial_changes lists all changes).",
+                stacklevel=2,
+            )
+    if isinstance(on_chunk, ChunkStore) and not traced:
+        on_chunk.write(result)  # the last chunk, or the one that failed
+    if result.status == Status.INTERRUPTED:
+        raise Interrupted(f"simulate of '{system.topo.name}': {result.message}", result)
+    if result.status != Status.SUCCESS and throw:
+        raise SolverError(result.message, result)
+    return result
+
+
+def _resolve(integrator, run, options):
+    """(integrator or Auto, RunOptions) from simulate's ``integrator``, ``run`` and flat options."""
+    from ..solvers.auto import Auto
+
+    run = run if run is not None else RunOptions()
+    if integrator is None or (isinstance(integrator, str) and integrator == "auto"):
+        integrator = Auto()
+    elif isinstance(integrator, str):
+        raise ModelError(f"simulate: integrator={integrator!r} is not a method name; give 'auto' or an integrator object, "
+                         "e.g. proleg.Tsit5(), proleg.Radau5(), proleg.GeneralizedAlpha().")
+    if not options:
+        return integrator, run
+    if isinstance(integrator, Auto):
+        flat = dict(options)
+        runk = {k: flat.pop(k) for k in _RUN_KEYS if k in flat}
+        if "jacobian_refresh" in flat:  # False forced a fresh matrix every step: no reuse
+            flat["jacobian_reuse"] = bool(flat.get("jacobian_reuse", False) and flat.pop("jacobian_refresh"))
+        names = {f.name for f in dataclasses.fields(Auto)}
+        unknown = sorted(set(flat) - names)
+        if unknown:
+            raise TypeError(f"simulate() got unexpected keyword argument(s) {unknown}.")
+        if runk:
+            _, run = simulate_options(integrator=None, run=run, warn=True, **runk)
+        return dataclasses.replace(integrator, **flat), run
+    fields = {f.name for f in dataclasses.fields(integrator)} if dataclasses.is_dataclass(integrator) else set()
+    from ..solvers.galpha import AbstractAlphaIntegrator
+
+    if not isinstance(integrator, AbstractAlphaIntegrator):
+        bad = sorted(k for k in options if k not in fields and k not in _RUN_KEYS)
+        if bad:
+            raise ModelError(f"simulate: {bad} are not options of {type(integrator).__name__} "
+                             f"(give its options to the integrator object, e.g. {type(integrator).__name__}(rtol=1e-8)).")
+        flat = {k: v for k, v in options.items() if k in fields}
+        _warn_flat(type(integrator).__name__, list(flat), "integrator")
+        _, run = simulate_options(integrator=None, run=run, warn=True, **{k: v for k, v in options.items() if k in _RUN_KEYS})
+        return dataclasses.replace(integrator, **flat), run
+    return simulate_options(integrator, run, warn=True, **options)
+
+
+def _warn_flat(cls, keys, arg):
+    if keys:
+        import warnings
+
+        warnings.warn(
+            f"simulate({', '.join(k + '=...' for k in keys)}) is deprecated and will be removed in the next "
+            f"release: pass {arg}={cls}({', '.join(k + '=...' for k in keys)}).", DeprecationWarning, stacklevel=5,
         )
-        h = np.asarray(dt_init if dt_init is not None else (fixed_step or min(1e-4, dopts.dt_max)), f64)
-        st = st._replace(h_prev=h)
-        seg = (knot(st), knot(st))  # the last accepted step (dense output); none yet
 
-        out_t = times[1:] if times[0] == t0 else times
-        t_stop = np.asarray(out_t[-1], f64)  # steps never go past the last output
-        K = int(chunk or 256 * dopts.out_block)
-        if chunk or free_running:  # the default pads shorter runs: one compilation for all output times
-            K = min(K, max(1, len(out_t)))
-        nchunks = int(math.ceil(len(out_t) / K))
-        host = (lambda x: x) if traced else np.asarray  # a concrete run records NumPy arrays
-        rec = {"q": [host(q_ic)[None]], "v": [host(v_ic)[None]], "w": [np.zeros((1, 2))], "z": [host(z0)[None]]}
-        rec_t = [np.array([t0])]
-        stats = np.zeros(4, int)
-        status, fail_t, worst = Status.SUCCESS, None, None
-        show = progress if progress is not None else (sys.stderr.isatty() and nchunks > 1 and not traced)
-        bar = None
-        if show and not traced:
-            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-            bar = Progress(TextColumn(f"[bold]{system.topo.name}[/] t ="), TextColumn("{task.fields[t]:.4f} s"), BarColumn(), TimeElapsedColumn(), transient=True)
-            bar.start()
-            task = bar.add_task("sim", total=float(t_end - t0), t=t0)
-        partial_result = None
-        tr_status, tr_ft, tr_stats = np.asarray(0), np.asarray(t0, f64), np.zeros(4, i32)
-        try:
-            for c in range(nchunks):
-                tc = out_t[c * K : (c + 1) * K]
-                n_valid = len(tc)
-                tpad = np.concatenate([tc, np.full(K - n_valid, tc[-1])])
-                st, h, k, bufs, (ns, nr, nn, nj), stat, ft, wr, seg = advance(
-                    dyn, integrator, dopts, st, h, tpad, n_valid, free_running, t_stop, seg
-                )
-                if traced:
-                    rec_t.append(tc)
-                    for key, b in zip(("q", "v", "w", "z"), bufs):
-                        rec[key].append(b[:n_valid])
-                    # Kept as (traced) arrays: the first failure and the counters (sweep.py reads them).
-                    first = tr_status == 0
-                    tr_status, tr_ft = jnp.where(first, stat, tr_status), jnp.where(first, ft, tr_ft)
-                    tr_stats = tr_stats + jnp.stack([ns, nr, nn, nj])
-                    continue
-                k = int(k)
-                stats += np.array([int(ns), int(nr), int(nn), int(nj)])
-                rec_t.append(tc[:k])
-                for key, b in zip(("q", "v", "w", "z"), bufs):
-                    rec[key].append(np.asarray(b)[:k])
-                if bar is not None:
-                    bar.update(task, completed=float(st.t) - t0, t=float(st.t))
-                if int(stat) != 0:
-                    status, fail_t, worst = Status(int(stat)), float(ft), dyn.absolute_row(int(wr))
-                    break
-                if on_chunk is not None:
-                    partial_result = _build(system, rec_t, rec, stats, status, "running", ig)
-                    on_chunk(partial_result)
-        except KeyboardInterrupt:
-            if traced:
-                raise
-            n = min(len(rec_t), *(len(r) for r in rec.values()))  # drop a chunk recorded in part
-            del rec_t[n:]
-            for r in rec.values():
-                del r[n:]
-            status, fail_t = Status.INTERRUPTED, float(rec_t[-1][-1])
-        finally:
-            if bar is not None:
-                bar.stop()
-        msg = "success"
-        if status == Status.INTERRUPTED:
-            msg = f"{status.describe()} at t = {fail_t:.6g} s; the result holds the outputs up to there."
-        elif status != Status.SUCCESS:
-            msg = _failure_message(system, status, fail_t, worst)
-        result = _build(system, rec_t, rec, stats, status, msg, ig)
-        result.coordinates = dyn.kind
-        if post is not None and len(result.t) == len(times):
-            result._compiled_post = post
-        if traced:  # status, failure time and counters as arrays (a Result's own fields need concrete values)
-            result.traced_status = (tr_status, tr_ft, tr_stats)
-        if not traced:
-            result.initial_changes = _ic_report(system, q_ic, v_ic) if q0 is None and v0 is None else []
-            moved = [c for c in result.initial_changes if max(c["moved [m]"], c["rotated [rad]"]) > 1e-6]
-            if moved:
-                import warnings
+def _result(system, sol, integrator, why) -> Result:
+    r = Result(system, sol.t, sol.q, sol.v, sol.w, sol.z, stats=sol.stats, status=sol.status, message=sol.message, integrator=integrator)
+    r.coordinates = sol.coordinates
+    r.stats["integrator"] = integrator.describe()
+    r.stats["integrator_reason"] = why
+    return r
 
-                warnings.warn(
-                    f"Initial conditions of '{system.topo.name}': to satisfy the joints, proleg moved "
-                    + ", ".join(f"'{c['part']}' by {c['moved [m]']:.3g} m / {c['rotated [rad]']:.3g} rad" for c in moved)
-                    + " from the modelled pose (result.initial_changes lists all changes).",
-                    stacklevel=2,
-                )
-        if isinstance(on_chunk, ChunkStore) and not traced:
-            on_chunk.write(result)  # the last chunk, or the one that failed
-        if status == Status.INTERRUPTED:
-            raise Interrupted(f"simulate of '{system.topo.name}': {msg}", result)
-        if status != Status.SUCCESS and throw:
-            raise SolverError(msg, result)
-        return result
-    finally:
-        trail.close()
+
+class _Bar:
+    """The progress bar of a run (rich), shown when asked or when stderr is a terminal and the run
+    has several chunks; says "compiling" until the first chunk is done."""
+
+    def __init__(self, name, show):
+        self.name, self.show, self.bar = name, show, None
+
+    def start(self, nchunks, t0, t_end):
+        show = self.show if self.show is not None else (sys.stderr.isatty() and nchunks > 1)
+        if not show:
+            return
+        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+        self.t0 = t0
+        self.bar = Progress(TextColumn(f"[bold]{self.name}[/]"), TextColumn("{task.fields[what]}"), BarColumn(), TimeElapsedColumn(), transient=True)
+        self.bar.start()
+        self.task = self.bar.add_task("sim", total=float(t_end - t0), what="compiling…")
+
+    def update(self, t):
+        if self.bar is not None:
+            self.bar.update(self.task, completed=float(t) - self.t0, what=f"t = {t:.4f} s")
+
+    def stop(self):
+        if self.bar is not None:
+            self.bar.stop()
 
 
 _POST_POOL = None
@@ -453,52 +420,3 @@ def _warn_unstable_servos(system, q, v, t0, z0):
 
     for msg in servo_warnings(servo_stability(system, q, v, t0, z0)):
         warnings.warn(msg, stacklevel=3)
-
-
-@cached_jit
-def _reduced_start(dyn, q, v, qdd, lam):
-    """The consistent absolute start (q, v, q̈, λ) in the coordinates ``dyn`` (x, ẋ, ẍ, λ_x) and
-    the HHT history term g = Φ_xᵀλ_x − Q = −M ẍ."""
-    x, xd = dyn.reduce(q, v)
-    xdd = dyn.reduce_acceleration(x, xd, qdd, q)
-    return x, xd, xdd, dyn.reduce_multipliers(lam), -dyn.mass_action(x, xdd)
-
-
-def _advance_absolute(dyn, integrator, dopts, st, h, out_times, n_valid, free_running=False, t_stop=None, seg=None):
-    """The integration loop (solvers/driver.py ``advance``) with its recorded (q, v) in absolute
-    coordinates: one executable (a separate conversion was one more compile and load per model)."""
-    out = _advance_jit(dyn, integrator, dopts, st, h, out_times, n_valid, free_running, t_stop, seg)
-    if dyn.kind == "absolute":
-        return out
-    bufs = out[3]
-    q, v = jax.vmap(dyn.absolute)(bufs[0], bufs[1])
-    return (*out[:3], (q, v, *bufs[2:]), *out[4:])
-
-
-_advance_absolute.__name__ = "advance"  # JAX's compile logs and the cache files name the loop
-# The integration loop, its trace and lowering kept across processes.
-advance = cached_jit(_advance_absolute, static_argnums=(1, 2, 7), xla="loop")
-
-
-def _failure_message(system, status, t, worst):
-    topo = system.topo
-    where = "unknown element"
-    if worst is not None:
-        if worst >= topo.nq:
-            elem, lab = topo.ct.labels[worst - topo.nq]
-            where = f"constraint '{elem}' ({lab})"
-        else:
-            b = min(worst // 7, topo.nbody - 1)
-            where = f"part '{topo.body_names[b]}'"
-            near = [g for g in topo.extensions if hasattr(g, "elements_on_body")]
-            names = sorted({n for g in near for n in g.elements_on_body(topo.body_names[b])})
-            if names:
-                where += f" (contact/element: {', '.join(names)})"
-    return f"{status.describe()} at t = {t:.6g} s; worst offender: {where}."
-
-
-def _build(system, rec_t, rec, stats, status, msg, integrator):
-    t = np.concatenate(rec_t)
-    xp = jnp if _any_traced(rec) else np
-    arrs = {k: xp.concatenate(v, 0) for k, v in rec.items()}
-    return Result(system, t, arrs["q"], arrs["v"], arrs["w"], arrs["z"], stats=stats, status=status, message=msg, integrator=integrator)

@@ -62,6 +62,13 @@ def _load(model_path: Path, fixed_base: bool = False):
         error(exc)
 
 
+def _auto_choice(system) -> str:
+    from proleg.solvers.auto import Auto
+
+    ig, why = Auto().choose(system, 1.0)
+    return f"{ig.describe()} — {why}"
+
+
 @app.command()
 def info(
     model: Path = typer.Argument(..., help="Model file (YAML or .urdf)."),
@@ -97,6 +104,8 @@ def info(
         "unconnected_parts": unconnected_parts(system.topo),
         # What simulate's coordinates="auto" runs on (assembly/coordinates.py).
         "coordinates": "planar (3 per part)" if system.topo.planar[0] is not None else f"absolute (not planar: {system.topo.planar[1]})",
+        # What simulate's integrator="auto" picks, and why (solvers/auto.py), for a 1 s run.
+        "integrator": _auto_choice(system),
     }
     if getattr(mdl, "urdf", None) is not None:
         data["mass_kg"] = round(sum(p.mass for p in mdl.parts), 6)

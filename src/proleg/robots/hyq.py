@@ -150,12 +150,12 @@ def stand(t_end: float = 1.5, dt_output: float = 2e-3, progress: bool = False, s
 
     from ..analyses.simulate import simulate
     from ..assembly.assemble import assemble
-    from ..solvers.galpha import AbstractIntegrator, GeneralizedAlpha
+    from ..solvers.galpha import AbstractAlphaIntegrator, GeneralizedAlpha
 
     model = hyq(**kw)
     skw = dict(simulate_kw or {})
     integrator = skw.pop("integrator", None) or GeneralizedAlpha()
-    if isinstance(integrator, AbstractIntegrator):  # modified Newton by default (flat keys in simulate_kw still override)
+    if isinstance(integrator, AbstractAlphaIntegrator):  # modified Newton by default (flat keys in simulate_kw still override)
         integrator = dataclasses.replace(integrator, jacobian_reuse=True)
     res = simulate(assemble(model), t_end=t_end, dt_output=dt_output, progress=progress, integrator=integrator, **skw)
     W = -sum(p.mass for p in model.parts) * model.gravity[2]

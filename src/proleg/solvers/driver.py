@@ -24,7 +24,7 @@ from ..errors import Status
 from ..assembly.coordinates import Absolute
 from .galpha import StepOptions, StepState, lu_apply, rarely, step
 from .initial import kkt_accelerations, sample_controllers
-from ..compile_cache import jit
+from ..compile_cache import cached_jit, jit
 
 
 @dataclass(frozen=True)
@@ -328,3 +328,188 @@ def advance(dyn, integrator, dopts: DriverOptions, st: StepState, h, out_times, 
     ((st, h, stats, status, ft, worst, _, seg), k), bufs = jax.lax.scan(reach, (init, z0), (t_pad[:Kb].reshape(-1, M), valid))
     bufs = tuple(b.reshape((Kb,) + b.shape[2:])[:K] for b in bufs)
     return st, h, k, bufs, stats, status, ft, worst, seg
+
+
+# ---------------------------------------------------------------------------------------------
+# The α-methods' run (GeneralizedAlpha, HHT): consistent start, the start reduced to the
+# coordinate set, then the compiled loop over chunks of output times.
+
+
+@cached_jit
+def _reduced_start(dyn, q, v, qdd, lam):
+    """The consistent absolute start (q, v, q̈, λ) in the coordinates ``dyn`` (x, ẋ, ẍ, λ_x) and
+    the HHT history term g = Φ_xᵀλ_x − Q = −M ẍ."""
+    x, xd = dyn.reduce(q, v)
+    xdd = dyn.reduce_acceleration(x, xd, qdd, q)
+    return x, xd, xdd, dyn.reduce_multipliers(lam), -dyn.mass_action(x, xdd)
+
+
+def _advance_absolute(dyn, integrator, dopts, st, h, out_times, n_valid, free_running=False, t_stop=None, seg=None):
+    """The integration loop (:func:`advance`) with its recorded (q, v) in absolute coordinates:
+    one executable (a separate conversion was one more compile and load per model)."""
+    out = advance(dyn, integrator, dopts, st, h, out_times, n_valid, free_running, t_stop, seg)
+    if dyn.kind == "absolute":
+        return out
+    bufs = out[3]
+    q, v = jax.vmap(dyn.absolute)(bufs[0], bufs[1])
+    return (*out[:3], (q, v, *bufs[2:]), *out[4:])
+
+
+_advance_absolute.__name__ = "advance"  # JAX's compile logs and the cache files name the loop
+# The integration loop, its trace and lowering kept across processes.
+advance_absolute = cached_jit(_advance_absolute, static_argnums=(1, 2, 7), xla="loop")
+
+
+def alpha_options(ig, system, t0: float, t_end: float, breakpoints=()) -> DriverOptions:
+    """The driver's options of an α-method ``ig`` for a run from t0 to t_end [s]."""
+    from .initial import sample_period
+
+    fixed_step = ig.fixed_step
+    return DriverOptions(
+        step=ig.step_options(),
+        dt_min=float(ig.dt_min),
+        # a static option: strip round-off so t_end changes do not recompile
+        dt_max=float(ig.dt_max if ig.dt_max is not None else f"{min(t_end - t0, 1e-2):.10g}"),
+        fixed_step=None if fixed_step is None else float(fixed_step),
+        sample_period=sample_period(system),
+        breakpoints=tuple(breakpoints),
+    )
+
+
+def run_alpha(ig, system, request):
+    """Integrate ``system`` with the α-method ``ig`` (GeneralizedAlpha or HHT) over ``request``
+    (solvers/base.py): the Solution, or a partial one with status INTERRUPTED on Ctrl-C."""
+    import contextlib
+    import math
+
+    import numpy as np
+
+    from .. import compile_cache
+    from ..assembly.coordinates import coordinate_set
+    from .base import Solution
+    from .initial import _consistent_state, initial_z
+
+    times = np.asarray(request.times, float)
+    t0 = float(request.t0)
+    t_end = float(times[-1])
+    dopts = alpha_options(ig, system, t0, t_end, request.breakpoints)
+    integrator = ig.method  # what the compiled step depends on; the options are in dopts
+    chunk, free_running = request.chunk, request.free_running
+    q0, v0 = request.q0, request.v0
+    z0 = initial_z(system)
+    params_traced = any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves((system.params, q0, v0)))
+    trail = contextlib.ExitStack()
+    if not params_traced:  # the executables this run loads, for a later process to start loading early
+        trail.enter_context(compile_cache.trail(system, request.coordinates, integrator, dopts, len(times), chunk,
+                                                free_running, q0 is None, v0 is None))
+    with trail:
+        q, v, qdd, lam, z0, (pw, g0) = _consistent_state(system, q0, v0, t0, z0)
+        q_ic, v_ic = q, v
+        traced = any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves((system.params, q)))
+        if not traced and request.on_start is not None:
+            request.on_start(q, v, z0)
+        dyn = coordinate_set(system, q, request.coordinates)
+        if dyn.kind != "absolute":
+            q, v, qdd, lam, g0 = _reduced_start(dyn, q, v, qdd, lam)
+        n_newton = dyn.nq + dyn.nc
+        # Constants as NumPy arrays: JAX would compile a small executable for each eager op.
+        f64, i32 = np.float64, np.int32
+        st = StepState(
+            t=np.asarray(t0, f64), q=q, v=v, a=qdd, qdd=qdd, lam=lam,
+            h_prev=np.asarray(1.0, f64), w=np.zeros(2), pw=pw, z=z0, g=g0,
+            Jfac=(np.zeros((n_newton, n_newton)), np.arange(n_newton, dtype=i32)), jac_h=np.asarray(0.0, f64),
+            jac_ok=np.asarray(False), jac_hold=np.asarray(0, i32), jac_pen=np.asarray(0, i32),
+            jerk=np.zeros(np.shape(q)), jerk_h=np.asarray(0.0, f64),
+        )
+        h = np.asarray(ig.dt_init if ig.dt_init is not None else (dopts.fixed_step or min(1e-4, dopts.dt_max)), f64)
+        st = st._replace(h_prev=h)
+        seg = (knot(st), knot(st))  # the last accepted step (dense output); none yet
+
+        out_t = times[1:] if times[0] == t0 else times
+        t_stop = np.asarray(out_t[-1], f64)  # steps never go past the last output
+        K = int(chunk or 256 * dopts.out_block)
+        if chunk or free_running:  # the default pads shorter runs: one compilation for all output times
+            K = min(K, max(1, len(out_t)))
+        nchunks = int(math.ceil(len(out_t) / K))
+        host = (lambda x: x) if traced else np.asarray  # a concrete run records NumPy arrays
+        rec = {"q": [host(q_ic)[None]], "v": [host(v_ic)[None]], "w": [np.zeros((1, 2))], "z": [host(z0)[None]]}
+        rec_t = [np.array([t0])]
+        stats = np.zeros(4, int)
+        status, fail_t, worst = Status.SUCCESS, None, None
+        tr_status, tr_ft, tr_stats = np.asarray(0), np.asarray(t0, f64), np.zeros(4, i32)
+
+        def solution(status_, msg):
+            t = np.concatenate(rec_t)
+            xp = jnp if traced else np
+            a = {k: xp.concatenate(r, 0) for k, r in rec.items()}
+            return Solution(t, a["q"], a["v"], a["w"], a["z"], stats.copy(), status_, msg, dyn.kind, start=(q_ic, v_ic))
+
+        bar = request.progress if not traced else None
+        if bar is not None:
+            bar.start(nchunks, t0, t_end)
+        try:
+            for c in range(nchunks):
+                tc = out_t[c * K : (c + 1) * K]
+                n_valid = len(tc)
+                tpad = np.concatenate([tc, np.full(K - n_valid, tc[-1])])
+                st, h, k, bufs, (ns, nr, nn, nj), stat, ft, wr, seg = advance_absolute(
+                    dyn, integrator, dopts, st, h, tpad, n_valid, free_running, t_stop, seg
+                )
+                if traced:
+                    rec_t.append(tc)
+                    for key, b in zip(("q", "v", "w", "z"), bufs):
+                        rec[key].append(b[:n_valid])
+                    # Kept as (traced) arrays: the first failure and the counters (sweep.py reads them).
+                    first = tr_status == 0
+                    tr_status, tr_ft = jnp.where(first, stat, tr_status), jnp.where(first, ft, tr_ft)
+                    tr_stats = tr_stats + jnp.stack([ns, nr, nn, nj])
+                    continue
+                k = int(k)
+                stats += np.array([int(ns), int(nr), int(nn), int(nj)])
+                rec_t.append(tc[:k])
+                for key, b in zip(("q", "v", "w", "z"), bufs):
+                    rec[key].append(np.asarray(b)[:k])
+                if bar is not None:
+                    bar.update(float(st.t))
+                if int(stat) != 0:
+                    status, fail_t, worst = Status(int(stat)), float(ft), dyn.absolute_row(int(wr))
+                    break
+                if request.on_chunk is not None:
+                    request.on_chunk(solution(status, "running"))
+        except KeyboardInterrupt:
+            if traced:
+                raise
+            n = min(len(rec_t), *(len(r) for r in rec.values()))  # drop a chunk recorded in part
+            del rec_t[n:]
+            for r in rec.values():
+                del r[n:]
+            status, fail_t = Status.INTERRUPTED, float(rec_t[-1][-1])
+        finally:
+            if bar is not None:
+                bar.stop()
+    msg = "success"
+    if status == Status.INTERRUPTED:
+        msg = f"{status.describe()} at t = {fail_t:.6g} s; the result holds the outputs up to there."
+    elif status != Status.SUCCESS:
+        msg = _failure_message(system, status, fail_t, worst)
+    sol = solution(status, msg)
+    if traced:  # status, failure time and counters as arrays (a Result's own fields need concrete values)
+        sol.traced_status = (tr_status, tr_ft, tr_stats)
+    return sol
+
+
+def _failure_message(system, status, t, worst):
+    topo = system.topo
+    where = "unknown element"
+    if worst is not None:
+        if worst >= topo.nq:
+            elem, lab = topo.ct.labels[worst - topo.nq]
+            where = f"constraint '{elem}' ({lab})"
+        else:
+            b = min(worst // 7, topo.nbody - 1)
+            where = f"part '{topo.body_names[b]}'"
+            near = [g for g in topo.extensions if hasattr(g, "elements_on_body")]
+            names = sorted({n for g in near for n in g.elements_on_body(topo.body_names[b])})
+            if names:
+                where += f" (contact/element: {', '.join(names)})"
+    return f"{status.describe()} at t = {t:.6g} s; worst offender: {where}."

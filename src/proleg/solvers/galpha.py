@@ -24,7 +24,7 @@ term vanishes for γ = 1/2 − δ₁); ρ∞ = 0.8: C_v = −29/324, HHT α = �
 h³ as the position error, whose estimate is C h²(a_{n+1} − a_n) ≈ C h³q⃛. q⁗ is estimated by the
 divided difference of the jerks j = (a_{n+1} − a_n)/h of this step and the last accepted one,
 q⁗ ≈ 2(j_{n+1} − j_n)/(h_n + h_{n+1}), in the weights rtol·|v| + atol/T (T =
-``velocity_time_scale``, AbstractIntegrator); the error norm is the larger of the two weighted
+``velocity_time_scale``, AbstractAlphaIntegrator); the error norm is the larger of the two weighted
 RMS norms. There is no velocity term on the first step after a start or a restart
 (controller sample, motion breakpoint: the accelerations jump there and the history is reset).
 With constraints (index 3) the estimate is projected onto Φ_q e = 0 with the step's Newton
@@ -54,6 +54,7 @@ import jax.numpy as jnp
 from jax.scipy.linalg import solve_triangular
 
 from ..assembly.coordinates import Absolute
+from .base import AbstractIntegrator
 from .batching import any_lane
 
 
@@ -79,8 +80,11 @@ class StepState(NamedTuple):
 
 
 @dataclass(frozen=True, kw_only=True)
-class AbstractIntegrator:
-    """Options every integrator carries (Diffrax style: the solver object holds its settings).
+class AbstractAlphaIntegrator(AbstractIntegrator):
+    """The α-methods (generalized-α, HHT) on the index-3 equations, and the options they carry
+    (Diffrax style: the solver object holds its settings). Any coordinates, constraints held
+    exactly, numerically damped (stiff elements), robust on contact and impacts: the run is the
+    compiled loop of solvers/driver.py (:func:`proleg.solvers.driver.run_alpha`).
 
     Parameters
     ----------
@@ -121,6 +125,17 @@ class AbstractIntegrator:
     lu_per_lane: bool = False
     error_on: str = "positions"
     velocity_time_scale: float = 0.1
+    coordinates = "any"
+    constraints = True
+    stiff = True
+    events = True
+    order = 2
+
+    def run(self, system, request):
+        """The compiled chunk loop of solvers/driver.py over ``request``."""
+        from .driver import run_alpha
+
+        return run_alpha(self, system, request)
 
     def step_options(self) -> StepOptions:
         return StepOptions(
@@ -155,9 +170,9 @@ class AbstractIntegrator:
 
 
 @dataclass(frozen=True)
-class GeneralizedAlpha(AbstractIntegrator):
+class GeneralizedAlpha(AbstractAlphaIntegrator):
     """Generalized-α, index 3, scaled Newton (default integrator); the options of
-    :class:`AbstractIntegrator` as keywords: ``GeneralizedAlpha(0.8, rtol=1e-8, atol=1e-9)``."""
+    :class:`AbstractAlphaIntegrator` as keywords: ``GeneralizedAlpha(0.8, rtol=1e-8, atol=1e-9)``."""
 
     rho_inf: float = 0.8
 
@@ -189,9 +204,9 @@ class GeneralizedAlpha(AbstractIntegrator):
 
 
 @dataclass(frozen=True)
-class HHT(AbstractIntegrator):
+class HHT(AbstractAlphaIntegrator):
     """HHT-I3 (Adams' HHT): α in [−1/3, 0]; the mass matrix is evaluated at q_{n+1+α}. The
-    options of :class:`AbstractIntegrator` as keywords: ``HHT(-0.05, rtol=1e-7)``."""
+    options of :class:`AbstractAlphaIntegrator` as keywords: ``HHT(-0.05, rtol=1e-7)``."""
 
     alpha: float = -0.05
 
@@ -253,7 +268,7 @@ class StepOptions:
     velocity_time_scale: float = 0.1  # [s]: velocity atol = atol / T
 
 
-_OPTION_FIELDS = frozenset(f.name for f in fields(AbstractIntegrator))
+_OPTION_FIELDS = frozenset(f.name for f in fields(AbstractAlphaIntegrator))
 
 
 def _weights(dyn, q, opts: StepOptions):

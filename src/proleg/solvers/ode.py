@@ -29,14 +29,20 @@ smoother PI setting Hairer recommends for stiff problems (Kvaerno5's default her
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import jax
 import jax.numpy as jnp
+import numpy as np
+
+from ..errors import Status
+from .base import AbstractIntegrator, RunRequest, Solution, absolute_outputs, output_grid
+from .eom import accelerations, vector_field  # noqa: F401  (re-exported)
 
 
 @dataclass(frozen=True)
-class AbstractODEIntegrator:
+class AbstractODEIntegrator(AbstractIntegrator):
     """An adaptive Diffrax solver for the joint-coordinate ODE (``simulate(integrator=...)``).
 
     Parameters
@@ -49,6 +55,8 @@ class AbstractODEIntegrator:
         acceleration-level constraint Φ̈ = 0 becomes Φ̈ + 2s Φ̇ + s² Φ = 0 (0: the plain index-1
         form, whose drift stays at the integration error over short runs, such as Andrews'
         squeezer's 0.03 s; simulate warns when |Φ| exceeds 1e-6)
+    dt_max : float [s], optional — largest step
+    fixed_step : float [s], optional — constant steps without error control
     """
 
     rtol: float = 1e-8
@@ -57,8 +65,10 @@ class AbstractODEIntegrator:
     icoeff: float = 1.0
     max_steps: int = 1_000_000
     stabilization: float = 0.0
+    dt_max: float | None = None
+    fixed_step: float | None = None
+    coordinates = "joint"
     order = 5
-    ode = True  # simulate() dispatches on this (analyses/ode.py)
 
     def __post_init__(self):
         for name in ("rtol", "atol"):
@@ -68,6 +78,10 @@ class AbstractODEIntegrator:
 
     def solver(self, fixed=False):
         raise NotImplementedError
+
+    def run(self, system, request):
+        """The joint-coordinate ODE of ``system`` by Diffrax (:func:`run_ode`)."""
+        return run_ode(self, system, request)
 
     def controller(self, tol, dt_max=None, fixed=False):
         """Diffrax step-size controller; ``tol`` = (rtol, atol), arrays (traced: no recompile per tolerance)."""
@@ -82,7 +96,7 @@ class AbstractODEIntegrator:
         """The integrator with its tolerances replaced by 1: the hashable, compile-time part."""
         import dataclasses
 
-        return dataclasses.replace(self, rtol=1.0, atol=1.0)
+        return dataclasses.replace(self, rtol=1.0, atol=1.0, dt_max=None, fixed_step=None)
 
     @property
     def tol(self):
@@ -113,6 +127,8 @@ class Dopri5(AbstractODEIntegrator):
 class Kvaerno5(AbstractODEIntegrator):
     """Kværnø's L-stable ESDIRK 5(4) (Diffrax ``Kvaerno5``), for stiff bushings and contact."""
 
+    stiff = True
+
     pcoeff: float = 0.3
     icoeff: float = 0.4
 
@@ -128,33 +144,6 @@ class Kvaerno5(AbstractODEIntegrator):
         return diffrax.Kvaerno5()
 
 
-def accelerations(dyn, x, u, t, z, stabilization=0.0, MQ=None):
-    """u̇ of the joint-coordinate ODE: M u̇ + Φ_xᵀλ = Q, Φ_x u̇ = γ (− 2s Φ̇ − s²Φ) (KKT); (nq,).
-    Without constraints by Cholesky (M is symmetric positive definite): 1 µs against 7.5 µs for
-    the LU of jnp.linalg.solve on the 8-link chain (bench/README.md, accuracy section)."""
-    from .initial import gamma_rhs
-
-    M, Q = (dyn.mass_matrix(x), dyn.generalized_forces(x, u, t, z)) if MQ is None else MQ
-    if dyn.nc == 0:
-        return jax.scipy.linalg.cho_solve(jax.scipy.linalg.cho_factor(M), Q)
-    Pq = jax.jacfwd(lambda y: dyn.constraints(y, t))(x)
-    nc = Pq.shape[0]
-    S = jnp.block([[M, Pq.T], [Pq, jnp.zeros((nc, nc), x.dtype)]])
-    g = gamma_rhs(dyn, x, u, t)
-    if stabilization:
-        phi, phid = jax.jvp(lambda s: dyn.constraints(x + s * u, t + s), (jnp.zeros((), x.dtype),), (jnp.ones((), x.dtype),))
-        g = g - 2.0 * stabilization * phid - stabilization**2 * phi
-    return jnp.linalg.solve(S, jnp.concatenate([Q, g]))[: x.shape[0]]
-
-
-def vector_field(t, y, args):
-    """Diffrax vector field of y = (x, u, w): (u, u̇, [dissipated, input] power)."""
-    dyn, z, stabilization = args
-    x, u, _ = y
-    M, Q, pw = dyn.dynamics(x, u, t, z)  # one pass of kinematics (assembly/joint_coordinates.py)
-    return u, accelerations(dyn, x, u, t, z, stabilization, (M, Q)), pw
-
-
 def solve(integrator, dyn, y0, z, t0, t1, tol, ts=None, dt0=None, dt_max=None, fixed=False):
     """Integrate y0 from t0 to t1 with ``z`` held, tolerances ``tol`` = (rtol, atol); ``fixed``: constant
     steps dt0. The states at ``ts`` (or at t1). Returns (ys, accepted steps, rejected steps, ok)."""
@@ -167,3 +156,100 @@ def solve(integrator, dyn, y0, z, t0, t1, tol, ts=None, dt0=None, dt_max=None, f
         max_steps=integrator.max_steps, throw=False, adjoint=diffrax.ForwardMode(),
     )
     return sol.ys, sol.stats["num_accepted_steps"], sol.stats["num_rejected_steps"], sol.result == diffrax.RESULTS.successful
+
+
+def _start(dyn, q, v):
+    return dyn.reduce(q, v)
+
+
+def _run_free(integrator, dyn, y0, z, times, tol, h, dt_max, fixed):
+    ys, ns, nr, ok = solve(integrator, dyn, y0, z, times[0], times[-1], tol, ts=times, dt0=h, dt_max=dt_max, fixed=fixed)
+    return ys, jnp.broadcast_to(z, (times.shape[0],) + z.shape), ns, nr, ok
+
+
+def _run_sampled(integrator, dyn, y0, z0, grid, tick, tol, h, dt_max, fixed):
+    """Sample to sample (and output to output): one solve per interval of ``grid``; at a tick
+    the controllers sample the state reached."""
+    from .initial import sample_controllers
+
+    def seg(c, k):
+        y, z, ns, nr, ok = c
+        ys, a, b, good = solve(integrator, dyn, y, z, grid[k], grid[k + 1], tol, dt0=h, dt_max=dt_max, fixed=fixed)
+        y = jax.tree_util.tree_map(lambda w: w[-1], ys)
+        q, v = dyn.absolute(y[0], y[1])
+        z = jnp.where(tick[k + 1], sample_controllers(dyn.system, grid[k + 1], q, v, z), z)
+        return (y, z, ns + a, nr + b, ok & good), (y, z)
+
+    c0 = (y0, z0, jnp.array(0), jnp.array(0), jnp.array(True))
+    (_, _, ns, nr, ok), (ys, zs) = jax.lax.scan(seg, c0, jnp.arange(grid.shape[0] - 1))
+    ys = jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a[None], b]), y0, ys)
+    return ys, jnp.concatenate([z0[None], zs]), ns, nr, ok
+
+
+_JITS = {}
+
+
+def _jits():
+    if not _JITS:
+        from ..compile_cache import jit
+
+        _JITS["start"] = jit(_start)
+        _JITS["free"] = jit(_run_free, xla="loop", static_argnums=(0, 7, 8))
+        _JITS["sampled"] = jit(_run_sampled, xla="loop", static_argnums=(0, 8, 9))
+    return _JITS
+
+
+def run_ode(integrator: AbstractODEIntegrator, system, request: RunRequest) -> Solution:
+    """Integrate ``system`` in joint coordinates with a Diffrax pair: the consistent start, the
+    joint-coordinate ODE of the tree to the output times, controllers sampled between solves.
+
+    Closed loops, motions and couplers run in the index-1 form (module docstring): a warning
+    says when the loop constraints drift beyond 1e-6; GeneralizedAlpha/HHT and Radau5 keep them
+    exactly."""
+    from ..assembly.joint_coordinates import joint_set
+    from .initial import _consistent_state, initial_z, sample_period
+
+    J = _jits()
+    t0 = float(request.t0)
+    times_np = output_grid(t0, request.times)
+    dyn = joint_set(system)
+    q, v, _, _, z0, _ = _consistent_state(system, request.q0, request.v0, t0, initial_z(system))
+    x, u = J["start"](dyn, q, v)
+    y0 = (x, u, jnp.zeros(2, x.dtype))
+    times_j = jnp.asarray(times_np)
+    Ts = sample_period(system)
+    fixed = integrator.fixed_step is not None
+    h = None if not fixed else jnp.asarray(integrator.fixed_step, jnp.float64)
+    dt_max = integrator.dt_max
+    if Ts is None:
+        ys, zs, ns, nr, ok = J["free"](integrator.static, dyn, y0, z0, times_j, integrator.tol, h, dt_max, fixed)
+        keep, t_out = np.arange(times_np.shape[0]), times_np
+    else:
+        ticks = t0 + Ts * np.arange(1, int(math.floor((times_np[-1] - t0) / Ts + 1e-9)) + 1)
+        grid = np.unique(np.concatenate([times_np, ticks]).round(12))
+        is_tick = np.isin(grid.round(12), ticks.round(12))
+        ys, zs, ns, nr, ok = J["sampled"](integrator.static, dyn, y0, z0, jnp.asarray(grid), jnp.asarray(is_tick), integrator.tol, h, dt_max, fixed)
+        keep = np.flatnonzero(np.isin(grid.round(12), times_np.round(12)))
+        t_out = grid[keep]
+    qs, vs = absolute_outputs(dyn, ys[0][keep], ys[1][keep])
+    traced = isinstance(x, jax.core.Tracer) or isinstance(ns, jax.core.Tracer)
+    stats = np.zeros(4, int) if traced else np.array([int(ns), int(nr), 0, 0])
+    status, msg = Status.SUCCESS, "success"
+    if not traced and not bool(ok):
+        status = Status.MAX_STEPS
+        msg = f"{type(integrator).__name__} stopped before t = {times_np[-1]:.6g} s (step limit {integrator.max_steps} or non-finite state)."
+    sol = Solution(t_out, qs, vs, ys[2][keep], zs[keep], stats, status, msg, "joint", start=(q, v))
+    if traced:
+        sol.traced_status = (jnp.where(ok, 0, int(Status.MAX_STEPS)), jnp.asarray(t0, jnp.float64), jnp.stack([ns, nr, 0 * ns, 0 * ns]))
+    if dyn.tree.ct.n_rows and not traced:
+        phi = float(np.abs(np.asarray(jax.vmap(dyn.constraints)(ys[0][keep], jnp.asarray(t_out)))).max())
+        if phi > 1e-6:
+            import warnings
+
+            warnings.warn(
+                f"{type(integrator).__name__} on '{system.topo.name}': the loop constraints ({', '.join(dyn.tree.cut)}) drifted to "
+                f"|Φ| = {phi:.2g} (index-1 form). Tighten rtol, set stabilization=..., or use GeneralizedAlpha or Radau5.",
+                stacklevel=4,
+            )
+    return sol
+

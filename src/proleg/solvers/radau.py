@@ -70,6 +70,7 @@ import numpy as np
 from jax.scipy.linalg import lu_factor, lu_solve
 
 from ..errors import ModelError, Status
+from .base import AbstractIntegrator, RunRequest, Solution, absolute_outputs, output_grid
 from .initial import mass_matrix
 
 _S6 = math.sqrt(6.0)
@@ -112,7 +113,7 @@ def _lagrange(s):
 
 
 @dataclass(frozen=True)
-class Radau5:
+class Radau5(AbstractIntegrator):
     """Radau IIA, order 5, on the index-2 (GGL) constrained equations of motion (``simulate(integrator=...)``).
 
     Runs in the coordinates ``simulate(coordinates=...)`` picks (absolute, planar or joint
@@ -143,8 +144,10 @@ class Radau5:
     max_newton: int = 7
     linear_solver: str = "eigen"
     fixed_step: float | None = None
+    coordinates = "any"
+    constraints = True
+    stiff = True
     order = 5
-    dae = True  # simulate() dispatches on this (analyses/radau.py)
 
     def __post_init__(self):
         name = type(self).__name__
@@ -174,6 +177,10 @@ class Radau5:
     @property
     def tol(self):
         return jnp.asarray(self.rtol, jnp.float64), jnp.asarray(self.atol, jnp.float64)
+
+    def run(self, system, request: RunRequest) -> Solution:
+        """The index-2 equations of ``system`` in ``request.coordinates`` (:func:`run_radau`)."""
+        return run_radau(self, system, request)
 
 
 class _Equations:
@@ -380,3 +387,72 @@ def gfull_plain(eqs, y, t, h):
     """g at the (scaled) point y = (q, v, hμ, hλ)."""
     q, v, U, L = eqs.split(y)
     return eqs.g(q, v, U, L, t, h)
+
+
+def _run(cfg, dyn, q, v, lam, a, z, times, stops, is_tick, tol, h0, dt_max):
+    from .initial import sample_controllers
+
+    def sample(t, x, xd, zz):
+        return sample_controllers(dyn.system, t, *dyn.absolute(x, xd), zz)
+
+    w = jnp.zeros(2, q.dtype)
+    return integrate(cfg, dyn, sample, q, v, lam, a, z, w, times, stops, is_tick, tol, h0, dt_max)
+
+
+def _reduce(dyn, q, v, qdd, lam):
+    """The consistent absolute start (q, v, q̈, λ) in the coordinates ``dyn``."""
+    x, xd = dyn.reduce(q, v)
+    return x, xd, dyn.reduce_acceleration(x, xd, qdd, q), dyn.reduce_multipliers(lam)
+
+
+_JITS = {}
+
+
+def run_radau(ig: Radau5, system, request: RunRequest) -> Solution:
+    """Integrate ``system`` with Radau5 in ``request.coordinates``: the consistent start reduced to
+    the coordinate set, one compiled loop of Radau IIA steps that land on controller sample
+    times (each tick updates the controller state), motion-law breakpoints and the last output;
+    outputs from the steps' collocation polynomials."""
+    from ..assembly.coordinates import coordinate_set
+    from .initial import _consistent_state, initial_z, sample_period
+
+    if not _JITS:
+        from ..compile_cache import jit
+
+        _JITS["run"] = jit(_run, xla="loop", static_argnums=(0,))
+        _JITS["reduce"] = jit(_reduce)
+    t0 = float(request.t0)
+    times = output_grid(t0, request.times)
+    q, v, qdd, lam, z0, _ = _consistent_state(system, request.q0, request.v0, t0, initial_z(system))
+    q_ic, v_ic = q, v
+    dyn = coordinate_set(system, q, request.coordinates)
+    if dyn.kind != "absolute":
+        q, v, qdd, lam = _JITS["reduce"](dyn, q, v, qdd, lam)
+    t1 = float(times[-1])
+    Ts = sample_period(system)
+    ticks = t0 + Ts * np.arange(1, int(math.floor((t1 - t0) / Ts + 1e-9)) + 1) if Ts else np.zeros(0)
+    bps = np.array([b for b in request.breakpoints if t0 < b < t1])
+    stops = np.unique(np.concatenate([ticks[ticks < t1 - 1e-12], bps, [t1]]).round(12))
+    is_tick = np.isin(stops, ticks.round(12))
+    dt_max = ig.dt_max if ig.dt_max is not None else t1 - t0
+    h0 = ig.dt_init if ig.dt_init is not None else min(1e-4 * (t1 - t0), dt_max)
+    h0 = ig.fixed_step if ig.fixed_step is not None else h0
+    f64 = jnp.float64
+    qs, vs, ws, zs, st, stat, t_reached = _JITS["run"](
+        ig.static, dyn, q, v, lam, qdd, z0, jnp.asarray(times), jnp.asarray(stops), jnp.asarray(is_tick), ig.tol,
+        jnp.asarray(h0, f64), jnp.asarray(dt_max, f64),
+    )
+    traced = isinstance(stat, jax.core.Tracer)
+    if dyn.kind != "absolute":
+        qs, vs = absolute_outputs(dyn, qs, vs)
+    status, msg = Status.SUCCESS, "success"
+    keep = len(times)
+    if not traced and int(stat) != 0:
+        status = Status(int(stat))
+        keep = int(np.searchsorted(times, float(t_reached), side="right"))
+        msg = f"Radau5 on '{system.topo.name}': {status.describe()} at t = {float(t_reached):.6g} s (rtol {ig.rtol:g})."
+    stats = np.zeros(4, int) if traced else np.asarray(st).astype(int)
+    sol = Solution(times[:keep], qs[:keep], vs[:keep], ws[:keep], zs[:keep], stats, status, msg, dyn.kind, start=(q_ic, v_ic))
+    if traced:
+        sol.traced_status = (stat, t_reached, st)
+    return sol
