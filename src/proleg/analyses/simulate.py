@@ -352,26 +352,23 @@ def _result(system, sol, integrator, why) -> Result:
 
 
 class _Bar:
-    """The progress bar of a run (rich), shown when asked or when stderr is a terminal and the run
-    has several chunks; says "compiling" until the first chunk is done."""
+    """The run's progress bar (analyses/progress.py :class:`RunProgress`: "compiling…" until the
+    first chunk returns), shown when asked, or when stderr is a terminal and the run has several
+    chunks. The integrator's run calls start/update/stop (solvers/base.py RunRequest.progress)."""
 
     def __init__(self, name, show):
         self.name, self.show, self.bar = name, show, None
 
     def start(self, nchunks, t0, t_end):
         show = self.show if self.show is not None else (sys.stderr.isatty() and nchunks > 1)
-        if not show:
-            return
-        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+        if show:
+            from .progress import RunProgress
 
-        self.t0 = t0
-        self.bar = Progress(TextColumn(f"[bold]{self.name}[/]"), TextColumn("{task.fields[what]}"), BarColumn(), TimeElapsedColumn(), transient=True)
-        self.bar.start()
-        self.task = self.bar.add_task("sim", total=float(t_end - t0), what="compiling…")
+            self.bar = RunProgress(self.name, t0, t_end).start()
 
     def update(self, t):
         if self.bar is not None:
-            self.bar.update(self.task, completed=float(t) - self.t0, what=f"t = {t:.4f} s")
+            self.bar.update(t)
 
     def stop(self):
         if self.bar is not None:
