@@ -82,6 +82,29 @@ def decode(key: str, blob: bytes) -> bytes:
     return payload
 
 
+def verify_file(path: str) -> str | None:
+    """Why the entry file ``path`` is not a valid entry of its name (None: valid). The key is read
+    from the header, and the file's name must be the one the store gives that key (a foreign or
+    misplaced file fails); then :func:`decode` checks length and checksum."""
+    try:
+        with open(path, "rb") as fh:
+            blob = fh.read()
+    except OSError as exc:
+        return f"{type(exc).__name__}: {exc}"
+    try:
+        if len(blob) < _HEAD.size:
+            raise CorruptEntry(f"truncated header ({len(blob)} bytes)")
+        _m, _v, klen = _HEAD.unpack_from(blob)
+        key = blob[_HEAD.size : _HEAD.size + klen].decode(errors="replace")
+        decode(key, blob)
+    except CorruptEntry as exc:
+        return str(exc)
+    stem = os.path.basename(path).removesuffix(SUFFIX)
+    kind = os.path.basename(os.path.dirname(path))
+    ok = {"xla": stem == entry_name(key), "trail": stem == key[:40], "export": stem.endswith("-" + key[:40])}.get(kind, False)
+    return None if ok else f"a {kind} entry named {stem!r} holds key {key[:50]!r}"
+
+
 def warn_once(tag, message: str) -> None:
     """One :class:`~proleg.errors.ProlegWarning` per ``tag`` in this process."""
     from .errors import ProlegWarning
@@ -141,9 +164,9 @@ class Store:
             with open(path, "rb") as fh:
                 blob = fh.read()
                 ino = os.fstat(fh.fileno()).st_ino
-        except FileNotFoundError:
+        except (FileNotFoundError, NotADirectoryError):  # absent, or no folder (reported by the first write)
             return None
-        except OSError as exc:  # a directory in its place, an I/O error: a miss
+        except OSError as exc:  # a directory in its place, no permission, an I/O error: a miss, reported
             self.discard(path, f"{type(exc).__name__}: {exc}")
             return None
         try:
@@ -239,7 +262,7 @@ class Store:
                         st = e.stat(follow_symlinks=False)
                     except OSError:
                         continue
-                    if _TMP.match(e.name) and kind:
+                    if _TMP.search(e.name) and kind:
                         if now - st.st_mtime > STALE_TMP_S:
                             with contextlib.suppress(OSError):
                                 os.unlink(e.path)
