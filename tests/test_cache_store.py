@@ -289,7 +289,7 @@ def test_full_read_only_or_uncreatable_folder_turns_writing_off(tmp_path):
         runs["read_only"] = cf.start(tmp_path / "read_only", *args,
                                      prefix=cf.tmpfs_prefix(tmp_path / "read_only", read_only_copy_of=partial))
     else:
-        runs["full"] = cf.start(tmp_path / "full", *args, "--fsize", 2000)
+        runs["full"] = cf.start(tmp_path / "full", *args, "--fsize", 4000)  # the first two of three entries fit
         for root, dirs, files in os.walk(partial):
             for d in dirs:
                 os.chmod(os.path.join(root, d), 0o555)

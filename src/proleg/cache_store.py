@@ -278,13 +278,14 @@ class Store:
         return out
 
     def evict(self, cap: int, keep: str | None = None) -> int:
-        """Delete least recently used files until the folder holds at most ``LOW_WATER × cap``
-        bytes if it holds more than ``cap``; returns the bytes left."""
+        """Delete least recently used files (older formats' first: no proleg reads them now) until
+        the folder holds at most ``LOW_WATER × cap`` bytes if it holds more than ``cap``; returns
+        the bytes left."""
         files = self.files()
         total = sum(f[1] for f in files)
         if total > cap:
             target = int(cap * LOW_WATER)
-            for _mtime, size, path, kind in sorted(files):
+            for _mtime, size, path, kind in sorted(files, key=lambda f: (f[3] != "legacy", f[0])):  # older formats first
                 if total <= target:
                     break
                 if path == keep or kind == "tmp":

@@ -20,12 +20,45 @@ The key (:func:`fingerprint`) must change whenever the traced computation can: i
 
 What cannot be hashed for sure (a module that is neither the standard library nor an installed
 package nor proleg, an object of an unknown extension type) makes the whole key unknown, and
-the call is an ordinary ``jax.jit`` call: when in doubt, miss. A cache entry that cannot be
-read is ignored with a :class:`~proleg.errors.ProlegWarning` and rewritten. Under tracing
-(``jit``, ``vmap``, ``grad`` of a caller) the wrapper is plain ``jax.jit``.
+the call is an ordinary ``jax.jit`` call: when in doubt, miss. Under tracing (``jit``,
+``vmap``, ``grad`` of a caller) the wrapper is plain ``jax.jit``.
 
-``PROLEG_CACHE_DIR=""`` turns this cache off with JAX's; entries live in its ``export/``
-folder. ``proleg.compile_cache.stats`` counts traces (misses) and loads (hits) in this process.
+``PROLEG_CACHE_DIR=""`` turns this cache off with JAX's. ``proleg.compile_cache.stats`` counts
+traces (misses) and loads (hits) in this process; ``proleg cache info | clear`` shows and
+empties the folder.
+
+The store (:mod:`proleg.cache_store`; issue 34, after Git's and SQLite's object stores and
+ccache). One folder is shared by every process on the machine (pytest-xdist workers, a study's
+worker pool, notebooks); it holds ``export/`` (traced functions), ``trail/`` (prefetch lists)
+and ``xla/`` (XLA executables: JAX's persistent compilation cache is routed through the same
+store, :func:`proleg.cache_store.install_jax_cache`). It promises, for every entry:
+
+- **Atomic publication.** An entry is written to a temporary file in its own folder, fsync'ed,
+  then renamed over its name (``os.replace``). A reader sees the whole old entry, the whole
+  new one, or none, never a part; a process killed at any point of a write leaves at most a
+  ``*.tmp`` file, which no reader opens and a later scan deletes after 15 minutes.
+- **Keys by content, verified on read.** Names derive from the key (a hash of everything the
+  computation depends on; JAX's own key for executables). Each file starts with a header:
+  magic, format version, the full key, payload length and sha256 of the payload, all checked
+  before the payload is used. A truncated, bit-flipped, foreign (another format, an older
+  proleg's pickle) or misplaced (another key's) entry is deleted with one
+  :class:`~proleg.errors.ProlegWarning` per entry and rebuilt: never a crash, never a wrong
+  executable handed to XLA. JAX's own file cache, by contrast, writes in place, checks only
+  zlib's Adler-32, and warns about a damaged entry on every run without rewriting it.
+- **Concurrent writers.** Processes that build the same key write their own temporary files
+  and rename them in turn: the last writer wins, with contents equal to the others' (the
+  same key means the same computation; an executable's entry also records its compile time
+  in whole seconds, which JAX reads only for its statistics).
+- **Failure turns writing off, not the run.** A full disk, a read-only folder or one that cannot
+  be created makes the first failed write warn once and stop writing in this process; entries
+  already there are still read, and the run goes on.
+- **Size cap.** ``PROLEG_CACHE_MAX_BYTES`` (bytes, or ``500M``/``2G``; default 2 GiB) bounds the
+  folder: after a write that may pass it, the folder is scanned (``os.scandir``, O(files); on a
+  process's first write, when its running total passes the cap, and after each 1/16 of the cap
+  written) and the least recently used entries deleted down to 90 % of it. A read refreshes an
+  entry's mtime (atime is unreliable under noatime/relatime). Processes writing at once may
+  overshoot the cap by up to 1/16 of it each until one of them scans. Only the store's own files
+  are counted or deleted; anything else in the folder is left alone.
 
 XLA options by kind of function (:data:`XLA_OPTIONS`, :func:`xla_options`). Most of a cold
 start is XLA's CPU backend compiling many small kernels, and two of its defaults cost far more
@@ -42,7 +75,7 @@ pendulum, HyQ leg drop and 7-link chain, bench/compile_cache.py --table and READ
 ``PROLEG_XLA_OPTIONS=default`` compiles everything with XLA's own defaults.
 
 Trails (:func:`trail`): an analysis (``simulate``) names what determines the executables it
-will load; the first run records them in ``export/trail-<key>.pkl``, and a later process
+will load; the first run records them in ``trail/<key>.entry``, and a later process
 starts loading the last one it will need (the step loop, the largest) in a background thread
 while the analysis computes its initial conditions. XLA deserialises executables without
 Python's lock, so on two cores the README example's warm start overlaps 0.05–0.1 s.
