@@ -243,11 +243,12 @@ def can_mount() -> bool:
     return _MOUNT[0]
 
 
-def tmpfs_prefix(folder, size: str | None = None, read_only_copy_of=None) -> list[str]:
+def tmpfs_prefix(folder, size: str | None = None, read_only: bool = False) -> list[str]:
     """A command prefix that runs the child in a private mount namespace with ``folder`` on a new
-    tmpfs of ``size`` (a full disk once filled), or the read-only bind of ``read_only_copy_of``."""
-    if read_only_copy_of is not None:
-        script = (f'mount --bind "{read_only_copy_of}" "{folder}" && mount -o remount,ro,bind "{folder}" && exec "$@"')
+    tmpfs of ``size`` (a full disk once filled), or bound read-only onto itself (its entries
+    stay at the same path: JAX's executable keys name the cache folder)."""
+    if read_only:
+        script = f'mount --bind "{folder}" "{folder}" && mount -o remount,ro,bind "{folder}" && exec "$@"'
     else:
         script = f'mount -t tmpfs -o size={size} tmpfs "{folder}" && exec "$@"'
     return ["unshare", "-m", "sh", "-c", script, "sh"]

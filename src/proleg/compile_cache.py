@@ -45,6 +45,8 @@ store, :func:`proleg.cache_store.install_jax_cache`). It promises, for every ent
   :class:`~proleg.errors.ProlegWarning` per entry and rebuilt: never a crash, never a wrong
   executable handed to XLA. JAX's own file cache, by contrast, writes in place, checks only
   zlib's Adler-32, and warns about a damaged entry on every run without rewriting it.
+  JAX's keys for executables include the cache folder (its compile options name it), so a
+  copied or moved cache recompiles its executables; the old ones age out under the cap.
 - **Concurrent writers.** Processes that build the same key write their own temporary files
   and rename them in turn: the last writer wins, with contents equal to the others' (the
   same key means the same computation; an executable's entry also records its compile time
