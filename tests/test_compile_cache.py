@@ -122,11 +122,11 @@ def test_corrupted_entry_is_ignored_with_a_warning(cache):
     f = cc.cached_jit(scaled, static_argnums=(1,))
     ref = np.sin(np.asarray(x)) * 3.0
     np.testing.assert_allclose(f(x, 3.0), ref, rtol=1e-15)
-    files = list(cache.glob("*.pkl"))
+    files = list(cache.glob("*.entry"))
     assert len(files) == 1
     files[0].write_bytes(b"not a pickle")
     g = cc.cached_jit(scaled, static_argnums=(1,))  # a new process's wrapper (empty memory)
-    with pytest.warns(pl.ProlegWarning, match="ignoring unreadable entry"):
+    with pytest.warns(pl.ProlegWarning, match="deleted the damaged entry"):
         np.testing.assert_allclose(g(x, 3.0), ref, rtol=1e-15)
     h = cc.cached_jit(scaled, static_argnums=(1,))
     with warnings.catch_warnings():
@@ -255,12 +255,12 @@ with warnings.catch_warnings(record=True) as w:
     warnings.simplefilter("always")
     res = pl.simulate(pl.assemble(m), t_end=0.3, dt_output=0.01, progress=False)
 print(json.dumps(dict(q=res.q[-1].tolist(), stats={k: v for k, v in cc.stats.items() if isinstance(v, int)},
-                      warned=[str(x.message)[:60] for x in w if "unreadable" in str(x.message)])))
+                      warned=[str(x.message)[:60] for x in w if "damaged" in str(x.message)])))
 """
 
 
 def test_trail_prefetches_the_step_loop_in_the_next_process(tmp_path):
-    """The first process records the executables simulate loaded (export/trail-*.pkl); the
+    """The first process records the executables simulate loaded (trail/*.entry); the
     second loads the step loop in a background thread from the start (stats "prefetched") and
     gets the same answer bit for bit; a damaged trail file is reported, ignored and rewritten."""
     import json
@@ -275,7 +275,7 @@ def test_trail_prefetches_the_step_loop_in_the_next_process(tmp_path):
         return json.loads(out.stdout.strip().splitlines()[-1])
 
     first = run()
-    trails = list((tmp_path / "export").glob("trail-*.pkl"))
+    trails = list((tmp_path / "trail").glob("*.entry"))
     assert len(trails) == 1 and first["stats"]["prefetched"] == 0 and first["stats"]["exported"] >= 3
     second = run()
     assert second["stats"]["prefetched"] == 1 and second["stats"]["exported"] == 0

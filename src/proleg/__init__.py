@@ -9,25 +9,17 @@ _jax.config.update("jax_enable_x64", True)
 def _enable_compilation_cache():
     """Persistent XLA compilation cache in the user's cache folder, so a model compiled once is
     not recompiled by the next process (set PROLEG_CACHE_DIR to move it, or to "" to disable;
-    proleg.compile_cache keeps the traced functions in its export/ folder). PROLEG_JAX_CACHE=0
-    leaves JAX's configuration alone (docs/global-settings.md)."""
+    proleg.compile_cache keeps the traced functions in its export/ folder, and JAX's executables
+    go through the same crash-safe store, in its xla/ folder: proleg.cache_store).
+    PROLEG_JAX_CACHE=0 leaves JAX's configuration alone (docs/global-settings.md)."""
     import os
 
+    from .cache_store import install_jax_cache
     from .compile_cache import cache_dir
 
     path = cache_dir()
-    if not path or os.environ.get("PROLEG_JAX_CACHE", "1") == "0":
-        return
-    try:
-        os.makedirs(path, exist_ok=True)
-        if _jax.config.jax_compilation_cache_dir is None:
-            _jax.config.update("jax_compilation_cache_dir", path)
-            # every executable, also those compiled in under 0.1 s at the "once" XLA options (a warm
-            # start loads them: README example 1.24 -> 1.18 s, bench/compile_cache.py --table)
-            _jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
-            _jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
-    except (OSError, AttributeError):  # read-only home or an older jax: run without the cache
-        pass
+    if path and os.environ.get("PROLEG_JAX_CACHE", "1") != "0":
+        install_jax_cache(path)
 
 
 _enable_compilation_cache()

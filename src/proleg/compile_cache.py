@@ -20,12 +20,47 @@ The key (:func:`fingerprint`) must change whenever the traced computation can: i
 
 What cannot be hashed for sure (a module that is neither the standard library nor an installed
 package nor proleg, an object of an unknown extension type) makes the whole key unknown, and
-the call is an ordinary ``jax.jit`` call: when in doubt, miss. A cache entry that cannot be
-read is ignored with a :class:`~proleg.errors.ProlegWarning` and rewritten. Under tracing
-(``jit``, ``vmap``, ``grad`` of a caller) the wrapper is plain ``jax.jit``.
+the call is an ordinary ``jax.jit`` call: when in doubt, miss. Under tracing (``jit``,
+``vmap``, ``grad`` of a caller) the wrapper is plain ``jax.jit``.
 
-``PROLEG_CACHE_DIR=""`` turns this cache off with JAX's; entries live in its ``export/``
-folder. ``proleg.compile_cache.stats`` counts traces (misses) and loads (hits) in this process.
+``PROLEG_CACHE_DIR=""`` turns this cache off with JAX's. ``proleg.compile_cache.stats`` counts
+traces (misses) and loads (hits) in this process; ``proleg cache info | clear`` shows and
+empties the folder.
+
+The store (:mod:`proleg.cache_store`; issue 34, after Git's and SQLite's object stores and
+ccache). One folder is shared by every process on the machine (pytest-xdist workers, a study's
+worker pool, notebooks); it holds ``export/`` (traced functions), ``trail/`` (prefetch lists)
+and ``xla/`` (XLA executables: JAX's persistent compilation cache is routed through the same
+store, :func:`proleg.cache_store.install_jax_cache`). It promises, for every entry:
+
+- **Atomic publication.** An entry is written to a temporary file in its own folder, fsync'ed,
+  then renamed over its name (``os.replace``). A reader sees the whole old entry, the whole
+  new one, or none, never a part; a process killed at any point of a write leaves at most a
+  ``*.tmp`` file, which no reader opens and a later scan deletes after 15 minutes.
+- **Keys by content, verified on read.** Names derive from the key (a hash of everything the
+  computation depends on; JAX's own key for executables). Each file starts with a header:
+  magic, format version, the full key, payload length and sha256 of the payload, all checked
+  before the payload is used. A truncated, bit-flipped, foreign (another format, an older
+  proleg's pickle) or misplaced (another key's) entry is deleted with one
+  :class:`~proleg.errors.ProlegWarning` per entry and rebuilt: never a crash, never a wrong
+  executable handed to XLA. JAX's own file cache, by contrast, writes in place, checks only
+  zlib's Adler-32, and warns about a damaged entry on every run without rewriting it.
+  JAX's keys for executables include the cache folder (its compile options name it), so a
+  copied or moved cache recompiles its executables; the old ones age out under the cap.
+- **Concurrent writers.** Processes that build the same key write their own temporary files
+  and rename them in turn: the last writer wins, with contents equal to the others' (the
+  same key means the same computation; an executable's entry also records its compile time
+  in whole seconds, which JAX reads only for its statistics).
+- **Failure turns writing off, not the run.** A full disk, a read-only folder or one that cannot
+  be created makes the first failed write warn once and stop writing in this process; entries
+  already there are still read, and the run goes on.
+- **Size cap.** ``PROLEG_CACHE_MAX_BYTES`` (bytes, or ``500M``/``2G``; default 2 GiB) bounds the
+  folder: after a write that may pass it, the folder is scanned (``os.scandir``, O(files); on a
+  process's first write, when its running total passes the cap, and after each 1/16 of the cap
+  written) and the least recently used entries deleted down to 90 % of it. A read refreshes an
+  entry's mtime (atime is unreliable under noatime/relatime). Processes writing at once may
+  overshoot the cap by up to 1/16 of it each until one of them scans. Only the store's own files
+  are counted or deleted; anything else in the folder is left alone.
 
 XLA options by kind of function (:data:`XLA_OPTIONS`, :func:`xla_options`). Most of a cold
 start is XLA's CPU backend compiling many small kernels, and two of its defaults cost far more
@@ -42,7 +77,7 @@ pendulum, HyQ leg drop and 7-link chain, bench/compile_cache.py --table and READ
 ``PROLEG_XLA_OPTIONS=default`` compiles everything with XLA's own defaults.
 
 Trails (:func:`trail`): an analysis (``simulate``) names what determines the executables it
-will load; the first run records them in ``export/trail-<key>.pkl``, and a later process
+will load; the first run records them in ``trail/<key>.entry``, and a later process
 starts loading the last one it will need (the step loop, the largest) in a background thread
 while the analysis computes its initial conditions. XLA deserialises executables without
 Python's lock, so on two cores the README example's warm start overlaps 0.05–0.1 s.
@@ -63,12 +98,13 @@ import sys
 import sysconfig
 import threading
 import types
-import warnings
 import weakref
 from collections import OrderedDict
 
 import jax
 import numpy as np
+
+from . import cache_store
 
 _PKG_DIR = os.path.dirname(os.path.abspath(__file__))
 
@@ -120,7 +156,7 @@ def jit(fn=None, *, xla: str = "once", static_argnums=()):
     return CachedJit(fn, static_argnums, xla, disk=False)
 
 
-stats = {"exported": 0, "loaded": 0, "unkeyed": 0, "corrupt": 0, "prefetched": 0}
+stats = {"exported": 0, "loaded": 0, "unkeyed": 0, "prefetched": 0}
 
 
 def cache_dir() -> str | None:
@@ -522,26 +558,27 @@ class CachedJit:
                 stats["why_unkeyed"] = (stats.get("why_unkeyed", []) + [f"{self.name}: {exc}"])[-10:]
         if key is None:  # not on disk: compiled here, with this function's XLA options
             return compile_lowered(jax.jit(self._flat(static, treedef)).lower(*specs), self.options)
+        st = cache_store.get(path)
         stem = "".join(c if c.isalnum() or c == "_" else "_" for c in getattr(self.fn, "__name__", "fn"))
-        file = os.path.join(path, "export", f"{stem}-{key[:40]}.pkl")
-        _Trail.note(file, avals, self.options)
-        compiled = _Trail.take(file)
+        name = f"{stem}-{key[:40]}"
+        _Trail.note(name, key, avals, self.options)
+        compiled = _Trail.take(name)
         if compiled is not None:
             stats["loaded"] += 1
             stats["prefetched"] += 1
             return compiled
-        exported = _load(file)
+        exported = _load(st, "export", name, key)
         if exported is not None:
             try:
                 compiled = _compile_exported(exported, specs, self.options)
                 stats["loaded"] += 1
                 return compiled
-            except Exception as exc:  # an entry that unpickled into something unusable
-                _warn_corrupt(file, exc)
+            except Exception as exc:  # an entry that verified but does not compile: rebuilt
+                st.discard(st.path("export", name), f"does not compile: {type(exc).__name__}: {exc}")
         exported = self._export(static, treedef, specs)
         if exported is None:
             return None
-        _save(file, exported)
+        _save(st, name, key, exported)
         stats["exported"] += 1
         return _compile_exported(exported, specs, self.options)
 
@@ -567,42 +604,25 @@ class CachedJit:
             return None
 
 
-def _load(file):
-    if not os.path.exists(file):
+def _load(st, kind, name, key):
+    """The unpickled entry ``name`` of ``kind``, or None (absent or damaged: the store deletes a
+    damaged entry with one warning, and so is one that verifies but does not unpickle)."""
+    blob = st.read(kind, name, key)
+    if blob is None:
         return None
     try:
-        with open(file, "rb") as fh:
-            return pickle.load(fh)
-    except Exception as exc:  # a truncated or foreign file: recompute and overwrite it
-        _warn_corrupt(file, exc)
+        return pickle.loads(blob)
+    except Exception as exc:
+        st.discard(st.path(kind, name), f"does not unpickle: {type(exc).__name__}: {exc}")
         return None
 
 
-def _warn_corrupt(file, exc) -> None:
-    from .errors import ProlegWarning
-
-    stats["corrupt"] += 1
-    warnings.warn(f"proleg compile cache: ignoring unreadable entry {file} ({type(exc).__name__}: {exc}); "
-                  "it is recomputed. Delete the folder to clear the cache.", ProlegWarning, stacklevel=6)
-
-
-def _save(file, exported) -> None:
+def _save(st, name, key, exported) -> None:
     try:
         blob = pickle.dumps(dataclasses.replace(exported, _get_vjp=None))
     except Exception:  # an output structure that does not pickle: keep it in this process only
         return
-    _write(file, blob)
-
-
-def _write(file, blob: bytes) -> None:
-    try:
-        os.makedirs(os.path.dirname(file), exist_ok=True)
-        tmp = f"{file}.{os.getpid()}.{threading.get_ident()}.tmp"
-        with open(tmp, "wb") as fh:
-            fh.write(blob)
-        os.replace(tmp, file)
-    except OSError:  # a read-only cache: run without saving
-        pass
+    st.write("export", name, key, blob)
 
 
 _INSTANCES = weakref.WeakSet()
@@ -611,29 +631,29 @@ _INSTANCES = weakref.WeakSet()
 class _Trail:
     """The executables loaded under one :func:`trail` (see the module docstring). Builds are
     noted from any thread while a trail is open (the outputs' compile runs in a second thread);
-    a prefetched executable is used only for the same file, which names its function, static
-    arguments and argument shapes, so a stale trail costs a wasted load, never a wrong one."""
+    a prefetched executable is used only for the same entry, whose key covers its function,
+    static arguments and argument shapes, so a stale trail costs a wasted load, never a wrong one."""
 
     lock = threading.Lock()
-    open: list = []  # the trails being recorded: [file, ...] lists, in the order of first use
-    entries: dict = {}  # file -> (avals, options) of the builds noted
-    prefetched: dict = {}  # file -> Future of the compiled executable
+    open: list = []  # the trails being recorded: [name, ...] lists, in the order of first use
+    entries: dict = {}  # entry name -> (key, avals, options) of the builds noted
+    prefetched: dict = {}  # entry name -> Future of the compiled executable
     pool = None
 
     @classmethod
-    def note(cls, file, avals, options):
+    def note(cls, name, key, avals, options):
         with cls.lock:
-            for files in cls.open:
-                if file not in files:
-                    files.append(file)
+            for names in cls.open:
+                if name not in names:
+                    names.append(name)
             if cls.open:
-                cls.entries[file] = (avals, options)
+                cls.entries[name] = (key, avals, options)
 
     @classmethod
-    def take(cls, file):
-        """The prefetched executable of ``file``, or None (none started: the caller loads it)."""
+    def take(cls, name):
+        """The prefetched executable of entry ``name``, or None (none started: the caller loads it)."""
         with cls.lock:
-            fut = cls.prefetched.pop(file, None)
+            fut = cls.prefetched.pop(name, None)
         if fut is None or fut.cancel():  # cancelled before it started: load it here
             return None
         try:
@@ -642,25 +662,25 @@ class _Trail:
             return None
 
     @classmethod
-    def prefetch(cls, file, avals, options) -> bool:
-        """Start loading ``file`` in the background thread; False if it is already under way."""
+    def prefetch(cls, st, name, key, avals, options) -> bool:
+        """Start loading entry ``name`` in the background thread; False if it is already under way."""
         from concurrent.futures import ThreadPoolExecutor
 
         dev = jax.config.jax_default_device  # the device this analysis runs on (thread-local)
 
         def load():
-            exported = _load(file)
+            exported = _load(st, "export", name, key)
             if exported is None:
                 return None
             with jax.default_device(dev):
                 return _compile_exported(exported, _specs(avals), options)
 
         with cls.lock:
-            if file in cls.prefetched:
+            if name in cls.prefetched:
                 return False
             if cls.pool is None:
                 cls.pool = ThreadPoolExecutor(1, thread_name_prefix="proleg-prefetch")
-            cls.prefetched[file] = cls.pool.submit(load)
+            cls.prefetched[name] = cls.pool.submit(load)
             return True
 
 
@@ -677,36 +697,37 @@ def trail(tree, *key_parts, prefetch: int = 1):
         return
     try:
         leaves, treedef = jax.tree_util.tree_flatten(tree)
-        key = fingerprint(("proleg-trail-1",), _environment_key(), treedef, tuple(_aval(x) for x in leaves), *key_parts)
+        key = fingerprint(("proleg-trail-2",), _environment_key(), treedef, tuple(_aval(x) for x in leaves), *key_parts)
     except (Unkeyable, TypeError):
         yield
         return
-    file = os.path.join(path, "export", f"trail-{key[:40]}.pkl")
-    before, started = _load(file), []
+    st = cache_store.get(path)
+    tname = key[:40]
+    before, started = _load(st, "trail", tname, key), []
     try:
-        for f, avals, options in list(before or [])[::-1][:prefetch]:
-            if os.path.exists(f) and _Trail.prefetch(f, avals, options):
-                started.append(f)
-    except Exception as exc:  # not a trail this version wrote: rewritten below
-        _warn_corrupt(file, exc)
+        for name, ekey, avals, options in list(before or [])[::-1][:prefetch]:
+            if os.path.exists(st.path("export", name)) and _Trail.prefetch(st, name, ekey, avals, options):
+                started.append(name)
+    except Exception as exc:  # verified, yet not a trail this version writes: rewritten below
+        st.discard(st.path("trail", tname), f"not a trail: {type(exc).__name__}: {exc}")
         before = None
-    files: list = []
+    names: list = []
     with _Trail.lock:
-        _Trail.open.append(files)
+        _Trail.open.append(names)
     try:
         yield
     finally:
         with _Trail.lock:
-            _Trail.open.remove(files)
-            record = [(f, *_Trail.entries[f]) for f in files]
+            _Trail.open.remove(names)
+            record = [(n, *_Trail.entries[n]) for n in names]
             if not _Trail.open:
                 _Trail.entries.clear()
-            for f in started:  # prefetched for nothing (a stale trail): let it go
-                fut = _Trail.prefetched.pop(f, None)
+            for n in started:  # prefetched for nothing (a stale trail): let it go
+                fut = _Trail.prefetched.pop(n, None)
                 if fut is not None:
                     fut.cancel()
         if record and [r[0] for r in record] != [b[0] for b in before or []]:
-            _write(file, pickle.dumps(record))
+            st.write("trail", tname, key, pickle.dumps(record))
 
 
 def clear() -> None:

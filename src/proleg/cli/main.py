@@ -212,7 +212,7 @@ def view(
 
 
 def _register_optional():
-    for modname in ("proleg.cli.prbm", "proleg.cli.identify", "proleg.cli.study"):
+    for modname in ("proleg.cli.prbm", "proleg.cli.identify", "proleg.cli.study", "proleg.cli.cache"):
         try:
             mod = __import__(modname, fromlist=["register"])
         except ImportError as exc:  # pragma: no cover - a broken optional module must not kill the CLI
