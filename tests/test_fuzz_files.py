@@ -383,6 +383,10 @@ def _scenario_stub(out_dir):
 
 @pytest.fixture(scope="module")
 def cli_env():
+    yield from make_cli_env()
+
+
+def make_cli_env():
     """typer's runner over proleg's app, with simulate, Study.run and the scenarios stubbed."""
     from typer.testing import CliRunner
 

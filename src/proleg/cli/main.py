@@ -61,6 +61,18 @@ def _load(model_path: Path, fixed_base: bool = False):
         raise typer.Exit(2) from None
 
 
+def _assemble(mdl):
+    """assemble, with a model error printed as one line and exit code 2."""
+    import proleg as pl
+    from proleg.errors import ModelError
+
+    try:
+        return pl.assemble(mdl)
+    except ModelError as exc:
+        console.print(f"[red]error:[/] {exc}")
+        raise typer.Exit(2) from None
+
+
 @app.command()
 def info(
     model: Path = typer.Argument(..., help="Model file (YAML or .urdf)."),
@@ -77,7 +89,7 @@ def info(
     mdl, _ = _load(model, fixed_base)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        system = pl.assemble(mdl)
+        system = _assemble(mdl)
     dof = dof_report(system)
     data = {
         "model": mdl.name,
@@ -132,7 +144,7 @@ def simulate(
         kw["rtol"] = rtol if rtol is not None else opts["rtol"]
     if opts.get("atol") is not None:
         kw["atol"] = opts["atol"]
-    system = pl.assemble(mdl)
+    system = _assemble(mdl)
     try:
         res = pl.simulate(system, t_end=t_end, dt_output=dt, progress=True, integrator=pl.GeneralizedAlpha(**kw))
     except SolverError as exc:
@@ -188,7 +200,11 @@ def view(
     if not result.is_file():
         console.print(f"[red]error:[/] result file {result} not found.")
         raise typer.Exit(2)
-    df = pd.read_parquet(result)
+    try:
+        df = pd.read_parquet(result)
+    except Exception as exc:  # pyarrow's ArrowInvalid, OSError: not a Parquet file
+        console.print(f"[red]error:[/] {result} is not a readable Parquet file ({type(exc).__name__}: {exc}).")
+        raise typer.Exit(2) from None
     if "time [s]" not in df.columns:
         console.print(f"[red]error:[/] {result} has no 'time [s]' column; expected a file written by Result.to_parquet.")
         raise typer.Exit(2)
@@ -198,7 +214,14 @@ def view(
         console.print(f"[red]error:[/] {result} has no part pose columns ('NAME.x [m]', 'NAME.e0', ...).")
         raise typer.Exit(2)
     out = out or result.with_suffix(".html")
-    out.write_text(page(scene, f"proleg: {result.name}"), encoding="utf-8")
+    tmp = out.with_name(f".tmp-{out.name}")  # written whole, then renamed: never half a page
+    try:
+        tmp.write_text(page(scene, f"proleg: {result.name}"), encoding="utf-8")
+        tmp.replace(out)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        console.print(f"[red]error:[/] cannot write {out}: {exc}")
+        raise typer.Exit(2) from None
     console.print(f"wrote {out}")
     if open_:
         import webbrowser
