@@ -176,8 +176,8 @@ def check_broken_model(text):
             if isinstance(parsed, dict) and parsed or "YAML" in msg:
                 assert re.search(re.escape(str(path)) + r":\d+", msg), f"no line number: {msg}"
         else:
-            model, _ = got
-            assert isinstance(model, pl.Model) and model.parts
+            model, _ = got  # may have no parts (a file cut after its name): assemble refuses that
+            assert isinstance(model, pl.Model)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
