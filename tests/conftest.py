@@ -40,6 +40,9 @@ def jax_events():
 
 
 MAX_MAPS = 40_000  # of the kernel's default vm.max_map_count = 65,530
+# proleg.memguard (assemble) would clear at a quarter of the limit; the suite keeps its shared
+# executables up to MAX_MAPS, as before (recompiling them costs more than the maps).
+os.environ.setdefault("PROLEG_MAX_MAPS", str(MAX_MAPS))
 
 
 def _memory_maps() -> int:

@@ -27,6 +27,7 @@ from .select import Select
 from .sparsity import jacobian_coloring
 from .system import System, Topology, _dof_at_assembly, _jit_constraints_and_jacobian, initial_coordinates
 from ..compile_cache import jit
+from .. import memguard
 
 
 # ---------------------------------------------------------------------------------------------
@@ -91,6 +92,7 @@ def assemble(model: Model, *, redundancy_tol: float = 1e-9) -> System:
     """
     if not isinstance(model, Model):
         raise ModelError(f"assemble expects a proleg.Model, got {type(model).__name__}.")
+    memguard.release_if_needed()  # a loop over new models must not reach the kernel's map limit
     if not model.parts:
         raise ModelError(f"Model '{model.name}' has no parts. Add parts with model.add_part.")
     body_index = {id(p): k for k, p in enumerate(model.parts)}

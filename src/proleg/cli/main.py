@@ -69,6 +69,17 @@ def _auto_choice(system) -> str:
     return f"{ig.describe()} — {why}"
 
 
+def _assemble(mdl):
+    """assemble, with a model error printed as one line and exit code 2."""
+    import proleg as pl
+    from proleg.errors import ModelError
+
+    try:
+        return pl.assemble(mdl)
+    except ModelError as exc:
+        error(str(exc))
+
+
 @app.command()
 def info(
     model: Path = typer.Argument(..., help="Model file (YAML or .urdf)."),
@@ -85,7 +96,7 @@ def info(
     mdl, _ = _load(model, fixed_base)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        system = pl.assemble(mdl)
+        system = _assemble(mdl)
     dof = dof_report(system)
     data = {
         "model": mdl.name,
@@ -142,7 +153,7 @@ def simulate(
         kw["rtol"] = rtol if rtol is not None else opts["rtol"]
     if opts.get("atol") is not None:
         kw["atol"] = opts["atol"]
-    system = pl.assemble(mdl)
+    system = _assemble(mdl)
     try:
         res = pl.simulate(system, t_end=t_end, dt_output=dt, progress=True, integrator=pl.GeneralizedAlpha(**kw))
     except SolverError as exc:
@@ -195,7 +206,10 @@ def view(
 
     if not result.is_file():
         error(f"result file {result} not found.")
-    df = pd.read_parquet(result)
+    try:
+        df = pd.read_parquet(result)
+    except Exception as exc:  # pyarrow's ArrowInvalid, OSError: not a Parquet file
+        error(f"{result} is not a readable Parquet file ({type(exc).__name__}: {exc}).")
     if "time [s]" not in df.columns:
         error(f"{result} has no 'time [s]' column; expected a file written by Result.to_parquet.")
     mdl = _load(model, fixed_base)[0] if model is not None else None
@@ -203,7 +217,13 @@ def view(
     if not scene["parts"]:
         error(f"{result} has no part pose columns ('NAME.x [m]', 'NAME.e0', ...).")
     out = out or result.with_suffix(".html")
-    out.write_text(page(scene, f"proleg: {result.name}"), encoding="utf-8")
+    tmp = out.with_name(f".tmp-{out.name}")  # written whole, then renamed: never half a page
+    try:
+        tmp.write_text(page(scene, f"proleg: {result.name}"), encoding="utf-8")
+        tmp.replace(out)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        error(f"cannot write {out}: {exc}")
     say(f"wrote {out}")
     if open_:
         import webbrowser

@@ -305,6 +305,12 @@ def _parse_yaml(text: str, source: str):
             f"{loc}: YAML syntax error: {what}. Check the indentation, that brackets and quotes are closed, "
             "and that list items start with '- '."
         ) from None
+    except yaml.reader.ReaderError as exc:  # a character YAML forbids (NUL, control codes): its line
+        pos = exc.position if isinstance(exc.position, int) else 0
+        line = text[:pos].count("\n") + 1
+        code = exc.character if isinstance(exc.character, int) else ord(str(exc.character)[:1] or "\0")
+        raise ModelError(f"{source}:{line}: YAML error: character #x{code:04x} is not allowed in a YAML file; "
+                         "remove it (or save the file as plain UTF-8 text).") from None
     except yaml.YAMLError as exc:
         raise ModelError(f"{source}: YAML error: {exc}") from None
     lines = {}

@@ -497,7 +497,10 @@ def load_urdf(
             continue
         Xc = X_W[ln] @ _X(p=center)
         mk = model.add_marker(part_of(ln), f"{ln}.contact", Xc[:3, 3])
-        model.add_contact(SphereContact(f"{ln}.contact", mk, radius=radius, **(contact or {})))
+        try:
+            model.add_contact(SphereContact(f"{ln}.contact", mk, radius=radius, **(contact or {})))
+        except ModelError as exc:  # a bad <sphere radius>: name the file and the link
+            raise ModelError(f"{where}: link '{ln}' <collision><sphere>: {exc}") from None
         foot_list.append(ln)
     ncoll = sum(
         1 for ln in order for c in (links[ln].collisions or []) if not (ln in foot_list and c.geometry is not None and c.geometry.sphere is not None)

@@ -188,6 +188,9 @@ def evaluate_batch(job: Job, rows: list[tuple[str, dict]], *, workers: int = 1, 
     """Simulate ``rows`` ([(key, {name: value})]) and return one row dict per variant."""
     from ..analyses.sweep import sweep
 
+    from .. import memguard
+
+    memguard.release_if_needed()  # each build of a builder study may be a new compiled model
     batch, worker = uuid.uuid4().hex[:12], _worker_name()
     if job.kind == "function":
         return _evaluate_functions(job, rows, batch, worker)
@@ -205,6 +208,7 @@ def evaluate_batch(job: Job, rows: list[tuple[str, dict]], *, workers: int = 1, 
     else:
         groups["system"] = (job.target, [(key, vals, None) for key, vals in rows])
     for base, members in groups.values():
+        memguard.release_if_needed()  # each group is a compiled model of its own
         if job.kind == "builder":
             names = sorted(base.params)
             params = {k: np.stack([np.asarray(m[2].params[k]) for m in members]) for k in names}
@@ -260,8 +264,12 @@ def run_payload(payload: bytes) -> list[dict]:
     """Worker entry point of the "processes" and "dask" executors: (job, rows) pickled."""
     import cloudpickle
 
+    from .. import memguard
+
     job, rows = cloudpickle.loads(payload)
-    return evaluate_batch(job, rows)
+    out = evaluate_batch(job, rows)
+    memguard.release_if_needed()  # a worker over many geometries keeps its maps and memory bounded
+    return out
 
 
 # ------------------------------------------------------------------------------------------
@@ -392,32 +400,113 @@ def shutdown_pools() -> None:
             _POOLS.popitem()[1].shutdown(wait=False, cancel_futures=True)
 
 
-def run_processes(job, batches, *, workers, retries: int = 2):
-    """Local worker processes (:func:`process_pool`). A pool broken by a killed worker is
-    replaced and the batches not yet returned are run again (``retries`` times)."""
-    from concurrent.futures import as_completed
+#: Deaths of a worker process (segfault, OOM killer, kill -9) while it evaluated one variant
+#: alone, after which that variant is stored as failed (status "worker_died") and the study goes
+#: on (``PROLEG_MAX_WORKER_DEATHS``).
+MAX_WORKER_DEATHS = max(1, int(os.environ.get("PROLEG_MAX_WORKER_DEATHS", "2") or 2))
+
+
+def _exit_codes(pool) -> str:
+    """How the pool's dead workers ended ("SIGKILL", "exit code 1"), as far as it still knows."""
+    import signal
+
+    out = []
+    for p in list((getattr(pool, "_processes", None) or {}).values()):
+        code = getattr(p, "exitcode", None)
+        if code:
+            try:
+                out.append(signal.Signals(-code).name if code < 0 else f"exit code {code}")
+            except ValueError:
+                out.append(f"exit code {code}")
+    return ", ".join(sorted(set(out))) or "killed"
+
+
+def _worker_died_rows(job, batch, reason) -> list[dict]:
+    rows = []
+    for key, vals in batch:
+        row = _row(key, vals, "", "")
+        row.update({k: math.nan for k in job.outputs}, status="worker_died", reason=reason, wall_s=math.nan,
+                   steps=0, newton_iterations=0, fail_time=math.nan, finished_at=time.time())
+        rows.append(row)
+    return rows
+
+
+def run_processes(job, batches, *, workers, max_deaths: int | None = None, max_empty_breaks: int = 3):
+    """Local worker processes (:func:`process_pool`), ``workers`` batches in flight at a time.
+
+    A worker that dies (segfault, OOM killer, kill -9) breaks the pool; it is replaced and the
+    batches that were in flight are run again, each alone, so that a further death is
+    attributed to the batch that caused it. A batch that kills its worker when alone is split
+    in halves, down to single variants; a variant that kills its worker ``max_deaths`` times
+    (default :data:`MAX_WORKER_DEATHS`) when alone becomes a row with status "worker_died" and
+    the reason, and the study goes on. Every other variant comes back exactly once. A pool that
+    breaks ``max_empty_breaks`` times with nothing in flight (workers that cannot start) ends the
+    run with a ModelError; what is not done stays pending in the store."""
+    from collections import deque
+    from concurrent.futures import FIRST_COMPLETED, wait
     from concurrent.futures.process import BrokenProcessPool
 
     import cloudpickle
 
-    pending = dict(enumerate(batches))
+    max_deaths = max_deaths or MAX_WORKER_DEATHS
+    queue, suspects = deque(batches), deque()  # suspects: were in flight when a worker died; run alone
+    deaths: dict = {}  # variant key -> deaths of its worker while it ran alone
+    empty_breaks = 0
     _hold_pool(workers)
     try:
-        for attempt in range(retries + 1):
-            if not pending:
-                return
+        while queue or suspects:
+            alone = bool(suspects)
+            pool = process_pool(workers)
+            inflight: dict = {}
             try:
-                pool = process_pool(workers)
-                futs = {pool.submit(run_payload, cloudpickle.dumps((job, b))): i for i, b in pending.items()}
-                for f in as_completed(futs):
-                    rows = f.result()
-                    del pending[futs[f]]
+                if alone:
+                    fut = pool.submit(run_payload, cloudpickle.dumps((job, suspects[0])))
+                    inflight[fut] = suspects[0]
+                    rows = fut.result()
+                    inflight.clear()
+                    suspects.popleft()
                     yield rows
+                    continue
+                def submit():  # a batch leaves the queue only once it is in flight
+                    inflight[pool.submit(run_payload, cloudpickle.dumps((job, queue[0])))] = queue[0]
+                    queue.popleft()
+
+                while queue and len(inflight) < workers:
+                    submit()
+                while inflight:
+                    done, _ = wait(list(inflight), return_when=FIRST_COMPLETED)
+                    for f in done:
+                        rows = f.result()  # raises BrokenProcessPool if a worker died
+                        del inflight[f]
+                        yield rows
+                        if queue:
+                            submit()
             except BrokenProcessPool:
+                how = _exit_codes(pool)
                 with _POOL_LOCK:
-                    _POOLS.pop(workers, None)
-                if attempt == retries:
-                    raise ModelError(f"Study: the worker processes died {retries + 1} times; {len(pending)} batches were not run (they stay pending in the store).") from None
+                    if _POOLS.get(workers) is pool:
+                        _POOLS.pop(workers, None)
+                pool.shutdown(wait=False, cancel_futures=True)
+                if alone:
+                    b = suspects.popleft()
+                    if len(b) > 1:  # bisect towards the variant that kills its worker
+                        h = len(b) // 2
+                        suspects.extendleft([b[h:], b[:h]])
+                    else:
+                        key = b[0][0]
+                        deaths[key] = deaths.get(key, 0) + 1
+                        if deaths[key] >= max_deaths:
+                            yield _worker_died_rows(job, b, f"the worker process died {deaths[key]} times evaluating this variant alone ({how})")
+                        else:
+                            suspects.appendleft(b)
+                elif inflight:
+                    suspects.extend(inflight.values())
+                else:
+                    empty_breaks += 1
+                    if empty_breaks >= max_empty_breaks:
+                        n = sum(len(b) for b in queue)
+                        raise ModelError(f"Study: the worker processes died {empty_breaks} times with no batch running ({how}); "
+                                         f"{n} variants were not run (they stay pending in the store).") from None
     finally:
         _release_pool(workers)
 

@@ -97,8 +97,14 @@ def _dim(name, v):
         if kind in ("range", "log"):
             if not isinstance(val, list) or len(val) != 2:
                 raise ModelError(f"study file: space.{name}.{kind} must be [lo, hi]; got {val!r}.")
-            return (float(val[0]), float(val[1])) if kind == "range" else LogRange(float(val[0]), float(val[1]))
+            try:
+                lo, hi = float(val[0]), float(val[1])
+            except (TypeError, ValueError):
+                raise ModelError(f"study file: space.{name}.{kind} must be two numbers [lo, hi]; got {val!r}.") from None
+            return (lo, hi) if kind == "range" else LogRange(lo, hi)
         if kind == "choices":
+            if not isinstance(val, list) or not val:
+                raise ModelError(f"study file: space.{name}.choices must be a non-empty list; got {val!r}.")
             return list(val)
         return val
     if isinstance(v, list):
@@ -113,13 +119,15 @@ def load_study_file(path):
     from .study import Study
 
     path = Path(path)
-    if not path.exists():
-        raise ModelError(f"study file '{path}' does not exist.")
+    if not path.is_file():
+        raise ModelError(f"study file '{path}' does not exist{' (it is a folder)' if path.is_dir() else ''}.")
     try:
-        raw = yaml.safe_load(path.read_text())
+        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
         spec = StudyFile.model_validate(raw)
     except yaml.YAMLError as exc:
         raise ModelError(f"study file '{path}': not valid YAML: {exc}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ModelError(f"study file '{path}' cannot be read: {exc}.") from None
     except ValidationError as exc:
         errs = "; ".join(f"{'.'.join(map(str, e['loc'])) or '(top)'}: {e['msg']}" for e in exc.errors())
         raise ModelError(f"study file '{path}': {errs}.") from None
@@ -132,7 +140,10 @@ def load_study_file(path):
         builder = getattr(pl.robots, spec.robot, None)
         if builder is None:
             raise ModelError(f"study file '{path}': unknown robot '{spec.robot}'; built-in: {[n for n in dir(pl.robots) if not n.startswith('_')]}.")
-        model = builder(**spec.robot_args)
+        try:
+            model = builder(**spec.robot_args)
+        except TypeError as exc:  # an unknown or missing keyword of the robot's function
+            raise ModelError(f"study file '{path}': robot_args do not fit robot '{spec.robot}': {exc}.") from None
     system = pl.assemble(model)
     study = Study(system, {k: _dim(k, v) for k, v in spec.space.items()}, {k: Expr(v, k) for k, v in spec.outputs.items()},
                   simulate=spec.simulate, name=spec.name or path.stem)

@@ -1,0 +1,122 @@
+"""A process that compiles many different models watches its own memory maps and resident memory.
+
+Every new compiled model (a new geometry of a builder study, a loop over link lengths) adds XLA
+executables that JAX's and proleg's jit caches keep alive. Measured on the HyQ leg
+(8 bushings, ``bench/memory_maps.py``, 2-core Intel VM, jaxlib 0.10.2): each new
+``simulate(assemble(hyq_leg(cylinder_length=...)))`` compiles 4 functions and adds ~750
+memory maps and ~100 MB of resident memory. The maps plateau near 12,800 after ~17 models
+(the kernel stops a process at ``vm.max_map_count``, 65,530 by default, with SIGSEGV), the
+resident memory does not: 300 models would hold ~30 GB. Clearing the caches
+(``jax.clear_caches()`` and :func:`proleg.compile_cache.clear`) returns the maps to ~870 and
+stops the growth of the resident memory (the freed pages are reused by the next models).
+
+:func:`release_if_needed` clears them when the process passes a threshold; :func:`proleg.assemble`
+calls it before every new model, and the study's workers after every batch, so a study over
+hundreds of geometries runs with no user action. Thresholds:
+
+- maps: ``PROLEG_MAX_MAPS``, default a quarter of ``vm.max_map_count`` (16,382 of 65,530), so a
+  process stays below half the kernel's limit with a model's worth of margin;
+- resident memory: ``PROLEG_MAX_RSS_BYTES``, default a quarter of the machine's memory (two
+  study workers and the driver then stay well inside it).
+
+After a clear that leaves the process above a threshold (memory held by the user's own arrays),
+the next clear waits until it has grown by half again, so the caches are not cleared before
+every model. Clearing only costs recompiling what is used again.
+"""
+
+from __future__ import annotations
+
+import gc
+import os
+
+_state = {"next_maps": None, "next_rss": None, "clears": 0}
+
+
+def memory_maps() -> int:
+    """Number of memory mappings of this process (lines of /proc/self/maps; 0 off Linux)."""
+    try:
+        with open("/proc/self/maps", "rb") as f:
+            return sum(1 for _ in f)
+    except OSError:
+        return 0
+
+
+def rss_bytes() -> int:
+    """Resident memory of this process [bytes] (0 where /proc is missing)."""
+    try:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        return 0
+
+
+def max_map_count() -> int:
+    """The kernel's per-process limit on memory maps (vm.max_map_count; 65,530 if unknown)."""
+    try:
+        with open("/proc/sys/vm/max_map_count") as f:
+            return int(f.read().strip())
+    except (OSError, ValueError):
+        return 65530
+
+
+def _total_memory() -> int:
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return 16 * 2**30
+
+
+def _env_int(name: str, default: int) -> int:
+    try:
+        v = int(float(os.environ.get(name, "")))
+        return v if v > 0 else default
+    except ValueError:
+        return default
+
+
+def limits() -> tuple[int, int]:
+    """(maps, resident bytes) past which :func:`release_if_needed` clears the compiled code."""
+    return _env_int("PROLEG_MAX_MAPS", max_map_count() // 4), _env_int("PROLEG_MAX_RSS_BYTES", _total_memory() // 4)
+
+
+def release() -> None:
+    """Drop every compiled executable this process holds (JAX's caches and proleg's)."""
+    import jax
+
+    from . import compile_cache
+
+    jax.clear_caches()
+    compile_cache.clear()
+    gc.collect()
+    _state["clears"] += 1
+
+
+def release_if_needed() -> bool:
+    """Clear the compiled code if this process passed its map or memory threshold
+    (:func:`limits`); True if it did."""
+    if not _outside_traces():
+        return False
+    max_maps, max_rss = limits()
+    maps, rss = memory_maps(), rss_bytes()
+    if maps <= max(max_maps, _state["next_maps"] or 0) and rss <= max(max_rss, _state["next_rss"] or 0):
+        return False
+    release()
+    maps, rss = memory_maps(), rss_bytes()
+    _state["next_maps"] = int(1.5 * maps) if maps > max_maps else None
+    _state["next_rss"] = int(1.5 * rss) if rss > max_rss else None
+    return True
+
+
+def _outside_traces() -> bool:
+    """Never clear JAX's caches from inside a trace (a builder called under ``jit``)."""
+    try:
+        from jax._src import core
+
+        return bool(core.trace_state_clean())
+    except (ImportError, AttributeError):  # pragma: no cover - other jax versions: be safe
+        return False
+
+
+def clears() -> int:
+    """How many times this process cleared its compiled code (:func:`release`)."""
+    return _state["clears"]

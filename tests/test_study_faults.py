@@ -1,0 +1,167 @@
+"""Studies that cannot crash the host (issue 34): the memory guard and dying workers.
+
+- :mod:`proleg.memguard` clears the compiled code of a process past its map or memory threshold,
+  so a loop over new models stays bounded (measured in bench/memory_maps.py: ~750 maps and
+  ~100 MB per new HyQ leg, maps plateau near 12,800, memory does not);
+- the "processes" executor: a worker killed mid-study (SIGKILL, as the OOM killer does) has its
+  batches run again, every variant stored exactly once; a variant that kills its worker every
+  time is stored once as "worker_died" with the reason, and the study goes on.
+
+Function studies keep these fast (no compilation in the workers); the slow tests run the
+issue's sizes: 200 variants with a kill, and 300 distinct HyQ-leg geometries in one process and
+on the processes executor.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import proleg as pl
+from proleg import memguard
+
+
+def test_memguard_clears_compiled_code_past_its_threshold(monkeypatch):
+    """Past PROLEG_MAX_MAPS the guard drops JAX's executables (a jitted function compiles again)
+    and then waits until the process has grown by half before clearing again."""
+    f = jax.jit(lambda x: jnp.sin(x) * 2.0)
+    f(jnp.ones(3))
+    assert f._cache_size() == 1
+    monkeypatch.setattr(memguard, "_state", {"next_maps": None, "next_rss": None, "clears": 0})
+    monkeypatch.setenv("PROLEG_MAX_MAPS", str(10**9))
+    assert not memguard.release_if_needed() and f._cache_size() == 1  # below: nothing happens
+    monkeypatch.setenv("PROLEG_MAX_MAPS", "10")  # every process has more than 10 maps
+    assert memguard.release_if_needed()
+    assert f._cache_size() == 0 and memguard.clears() == 1
+    assert not memguard.release_if_needed()  # still above 10, but not grown by half since the clear
+    monkeypatch.setenv("PROLEG_MAX_MAPS", "nonsense")  # a bad setting falls back to the default
+    assert memguard.limits()[0] == memguard.max_map_count() // 4
+    assert memguard.memory_maps() > 10 and memguard.rss_bytes() > 0
+
+
+def _two_link(length):
+    """A two-link pendulum whose lower link hangs at ``length`` [m]; its initial pose is a static
+    constant of the start-up solve, so every length compiles anew (as a new geometry does)."""
+    m = pl.Model(f"two_link_{length:.6f}".replace(".", "_"))
+    up = m.add_part("upper", 1.0, (1e-3, 0.02, 0.02), (0.25, 0, 0))
+    lo = m.add_part("lower", 0.5, (1e-3, 0.01, 0.01), (0.5 + 0.5 * length, 0, 0))
+    m.add_joint(pl.Revolute("hip", m.ground, up, at=(0, 0, 0), axis=(0, 1, 0)))
+    m.add_joint(pl.Revolute("knee", up, lo, at=(0.5, 0, 0), axis=(0, 1, 0)))
+    return m
+
+
+def test_a_loop_over_new_models_stays_below_the_guard(monkeypatch):
+    """20 new models assembled and simulated in one loop, with the guard's map threshold set to
+    3,000 above the start: the maps never pass the threshold plus one model's worth, and the
+    guard cleared at least once (without it they would grow by ~10,000)."""
+    from proleg import compile_cache
+
+    jax.clear_caches()
+    compile_cache.clear()
+    start = memguard.memory_maps()
+    monkeypatch.setenv("PROLEG_MAX_MAPS", str(start + 3000))
+    monkeypatch.setattr(memguard, "_state", {"next_maps": None, "next_rss": None, "clears": 0})
+    peak = 0
+    for k in range(20):
+        r = pl.simulate(pl.assemble(_two_link(0.5 + 0.01 * k)), t_end=0.01, dt_output=0.005, progress=False)
+        assert np.all(np.isfinite(np.asarray(r.q)))
+        peak = max(peak, memguard.memory_maps())
+    per_model = 1500  # generous: a two-link model adds a few hundred maps
+    assert memguard.clears() >= 1, f"no clear: peak {peak}, start {start}"
+    assert peak < start + 3000 + per_model
+    assert peak < memguard.max_map_count() // 2
+
+
+def _kill_study(tmp_path, n, kill_after_first=True):
+    import multiprocessing as mp
+
+    def _evaluate(x):  # nested: cloudpickle sends it by value to the workers
+        if x == 13.0:  # a variant that kills its worker, as a segfault or the OOM killer would
+            os.kill(os.getpid(), signal.SIGKILL)
+        return {"y": x * x}
+
+    st = pl.study.Study.function(_evaluate, {"x": [float(i) for i in range(n)]}, ["y"])
+    killed = []
+
+    def kill_a_worker(rows):
+        kids = [p for p in mp.active_children() if p.is_alive()]
+        if kill_after_first and kids and not killed:
+            os.kill(kids[0].pid, signal.SIGKILL)  # a worker process of this study's pool
+            killed.append(kids[0].pid)
+
+    tab = st.run(design="grid", executor="processes", workers=2, batch_size=2, store=tmp_path / "s",
+                 progress=False, on_batch=kill_a_worker)
+    return tab, pl.study.Store(tmp_path / "s").read(), killed
+
+
+def _check_exactly_once(tab, rows, n):
+    assert len(rows) == n and rows["key"].is_unique, "a variant is missing or stored twice"
+    died = rows[rows["status"] == "worker_died"]
+    assert list(died["x"]) == [13.0]
+    assert "died 2 times" in died["reason"].iloc[0] and "SIGKILL" in died["reason"].iloc[0]
+    ok = rows[rows["status"] == "success"]
+    assert len(ok) == n - 1
+    np.testing.assert_array_equal(ok["y"], ok["x"] ** 2)  # x² of small integers is exact
+    assert len(tab) == n and set(tab["key"]) == set(rows["key"])
+
+
+def test_killed_workers_requeue_and_a_killer_variant_fails_once(tmp_path):
+    """20 variants on 2 workers: the test kills a worker after the first batch, and variant
+    x = 13 kills its worker whenever it runs. Every variant ends in the store exactly once: 19
+    successes, and x = 13 as "worker_died" after 2 deaths, with the signal named."""
+    tab, rows, killed = _kill_study(tmp_path, 20)
+    assert killed
+    _check_exactly_once(tab, rows, 20)
+
+
+@pytest.mark.slow
+def test_a_200_variant_study_survives_a_killed_worker(tmp_path):
+    tab, rows, killed = _kill_study(tmp_path, 200)
+    assert killed
+    _check_exactly_once(tab, rows, 200)
+
+
+def hyq_builder(cylinder_length):
+    return pl.assemble(pl.robots.hyq_leg(joints="bushings8", cylinder_length=float(cylinder_length)))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("executor", ["local", "processes"])
+def test_builder_study_over_300_hyq_geometries(executor, tmp_path):
+    """300 distinct cylinder lengths of the HyQ leg, each a new compiled model, in one builder
+    study: it completes, and this process (or each worker) stays below half the kernel's map
+    limit with no user action (bench/memory_maps.py measures the same with a table)."""
+    import threading
+
+    peak = [0]
+    stop = threading.Event()
+
+    def watch():
+        import multiprocessing as mp
+
+        while not stop.wait(0.5):
+            pids = ["self"] + [p.pid for p in mp.active_children()]
+            for pid in pids:
+                try:
+                    with open(f"/proc/{pid}/maps", "rb") as f:
+                        peak[0] = max(peak[0], sum(1 for _ in f))
+                except OSError:
+                    pass
+
+    t = threading.Thread(target=watch, daemon=True)
+    t.start()
+    try:
+        st = pl.study.Study(hyq_builder, {"cylinder_length": list(np.linspace(0.075, 0.095, 300))},
+                            {"z": lambda r: r.part("slider").position[-1, 2]}, dict(t_end=0.02, dt_output=1e-3))
+        tab = st.run(design="grid", executor=executor, batch_size=1, workers=2 if executor == "processes" else 1,
+                     store=tmp_path / "s", progress=False)
+    finally:
+        stop.set()
+        t.join()
+    assert len(tab) == 300 and (tab["status"] == "success").all()
+    assert peak[0] < memguard.max_map_count() // 2
