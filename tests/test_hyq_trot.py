@@ -36,7 +36,7 @@ def test_piston_kinematics_is_the_lever_geometry():
 
 
 def test_trot_schedule_pairs_and_duty():
-    g = Trot(period=0.5, duty=0.6, t_start=0.5)
+    g = Trot(period=0.5, duty=0.6, t_start=0.5, ramp=2.0)
     t = np.linspace(0.5, 2.5, 4001)
     st = {leg: np.array([bool(g.phase(tt, LEG_OFFSET[leg])[0]) for tt in t]) for leg in LEG_OFFSET}
     assert np.array_equal(st["lf"], st["rh"]) and np.array_equal(st["rf"], st["lh"])
@@ -44,3 +44,46 @@ def test_trot_schedule_pairs_and_duty():
     assert not np.any(~st["lf"] & ~st["rf"])  # a pair always stands (duty > 0.5)
     assert all(bool(g.phase(0.2, LEG_OFFSET[leg])[0]) for leg in LEG_OFFSET)  # all stand before t_start
     assert float(g.commanded_speed(0.4)) == 0.0 and float(g.commanded_speed(1.5)) == pytest.approx(0.5) and float(g.commanded_speed(9.0)) == 1.0
+
+
+def _check_trot(run, t_from):
+    """Diagonal feet alternate: in mid-swing of each pair (schedule), its feet carry < 2 % of the
+    weight and the other pair's feet more than a quarter each; the trunk stays up and goes forward."""
+    res, g = run.result, run.gait
+    t = np.asarray(res.t)
+    fz = {leg: np.asarray(res.contact(f"{leg}_foot.contact")["normal_force"]) for leg in LEG_OFFSET}
+    weight = res.system.topo.model.trot["mass"] * 9.81
+    checked = 0
+    for k, tk in enumerate(t):
+        if tk < t_from:
+            continue
+        for pair, other in ((("lf", "rh"), ("rf", "lh")), (("rf", "lh"), ("lf", "rh"))):
+            stance, _, s_sw = g.phase(tk, LEG_OFFSET[pair[0]])
+            if not bool(stance) and 0.4 < float(s_sw) < 0.6:
+                checked += 1
+                assert all(fz[leg][k] < 0.02 * weight for leg in pair), (tk, pair, [fz[leg][k] for leg in pair])
+                assert all(fz[leg][k] > 0.25 * weight for leg in other), (tk, other, [fz[leg][k] for leg in other])
+    assert checked >= 4  # both pairs swung, at least twice
+    m = run.metrics
+    assert not m["fell"] and m["base_height_min"] > 0.5
+    assert np.asarray(res.part("base_link").position)[-1, 0] - np.asarray(res.part("base_link").position)[0, 0] > 0.05
+
+
+def test_short_trot_torque_sources():
+    """Reduced trot (1.2 s: 0.2 s standing, then stepping with the speed ramp): ideal torque sources."""
+    from proleg.robots.hyq_trot import hyq_trot
+
+    run = hyq_trot(t_end=1.2, actuators="torque", gait=Trot(t_start=0.2, ramp=1.0))
+    _check_trot(run, 0.3)
+    assert run.metrics["max_joint_torque"] <= 150.0 + 1e-9
+
+
+@pytest.mark.slow
+def test_short_trot_hydraulic():
+    """The same reduced trot on the hydraulic cylinders: chamber pressures within [0, p_s]."""
+    from proleg.robots.hyq_trot import hyq_trot
+
+    run = hyq_trot(t_end=1.2, actuators="hydraulic", gait=Trot(t_start=0.2, ramp=1.0))
+    _check_trot(run, 0.3)
+    m = run.metrics
+    assert 0.0 <= m["min_chamber_pressure"] and m["max_chamber_pressure"] <= m["supply_pressure"]

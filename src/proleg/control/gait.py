@@ -16,8 +16,8 @@ by 1/``moment_arm`` and regularised, since a diagonal pair cannot produce a mome
 diagonal), each tangential force clipped into 0.6 μ F_z, F_z ≥ 0; a leg makes its ground force
 F_i with the joint torques τ = −J_iᵀ F_i (J_i the foot-point Jacobian of the leg's joints).
 
-Swing: a Cartesian PD of the foot on a trajectory from the nominal lift-off point (½ v T_st behind
-the hip's nominal foot point) to the Raibert touchdown point ½ v T_st + k_r (v − v_cmd) ahead
+Swing: a Cartesian PD of the foot on a trajectory from the nominal lift-off point (½ v_cmd T_st
+behind the hip's nominal foot point) to the Raibert touchdown point ½ v T_st + k_r (v − v_cmd) ahead
 (Raibert, *Legged Robots That Balance*, 1986), smoothstep in the horizontal, h sin(π s) in
 height: τ = Jᵀ (K_sw (p_d − p) + D_sw (v_d − v)).
 """
@@ -55,8 +55,8 @@ class Trot:
     period: float = 0.5
     duty: float = 0.6
     step_height: float = 0.08
-    t_start: float = 0.5
-    ramp: float = 2.0
+    t_start: float = 0.3
+    ramp: float = 1.5
     raibert_gain: float = 0.05
     kv: float = 4.0
     height: float | None = None
@@ -133,8 +133,8 @@ def quadruped_torques(gait: Trot, t, state, *, legs, joints, feet, base, mass, n
         s = d["s_sw"]
         c, cd = 3 * s**2 - 2 * s**3, 6 * s * (1 - s)
         x_lo = -0.5 * v_cmd * T_st
-        x_td = 0.5 * v_cmd * T_st + gait.raibert_gain * (v_b[0] - v_cmd)
-        y_td = gait.raibert_gain * v_b[1]
+        x_td = 0.5 * v_b[0] * T_st + gait.raibert_gain * (v_b[0] - v_cmd)
+        y_td = 0.5 * v_b[1] * T_st + gait.raibert_gain * v_b[1]
         base_xy = d["hip"][:2] + nominal[leg]
         p_d = jnp.array([base_xy[0] + x_lo + c * (x_td - x_lo), base_xy[1] + c * y_td, foot_height + gait.step_height * jnp.sin(jnp.pi * s)])
         v_d = jnp.array([v_b[0] + cd * (x_td - x_lo) / T_sw, v_b[1] + cd * y_td / T_sw, gait.step_height * jnp.pi * jnp.cos(jnp.pi * s) / T_sw])
