@@ -188,3 +188,28 @@ def test_hydraulic_servo_errors():
         hydraulic_servo("h", ["a", "b"], ["x"], lambda th: (th, th))
     with pytest.raises(ModelError, match="whole multiple"):
         hydraulic_servo("h", ["a"], ["x"], lambda th: (th, th), period=1e-3, outer_period=2.5e-3)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="known open problem (issue 33 report): at 0.6 s the hip rod force is 114 N against a PD "
+                   "force reference of 31 N; the steady force loop should close this (not yet explained)")
+def test_hyq_leg_pressure_cylinders_hold_the_static_load():
+    """The fidelity switch on the HAL bench model: hyq_leg(cylinders="pressure") standing on the
+    plate (dropped from 5 mm) settles with the rod forces p_A A_A − p_B A_B equal to the PD's
+    force reference (kp (θ_set − θ) − kd θ̇)/(dc/dθ): the pressure loop has no steady error
+    (the blocked valve integrates), up to the 20 N seal friction the slide may hold; the chamber
+    pressures stay in [0, p_s]. (Against the spring-damper form the settled poses differ: its
+    Table 2 spring adds joint stiffness, so the static forces are compared per model.)"""
+    from proleg.robots.hyq_leg import hyq_leg
+
+    kw = dict(joints="rigid", gain="high", drop_height=0.005)
+    res = pl.simulate(pl.assemble(hyq_leg(**kw, cylinders="pressure")), t_end=0.6, dt_output=2e-3)
+    for s in ("hip", "knee"):
+        out = hydraulic_outputs(res, f"{s}_servo")
+        f, f_ref = out["measured_force"][-1, 0], out["torque_reference"][-1, 0]
+        assert abs(f) > 50.0  # it carries load
+        assert f == pytest.approx(f_ref, abs=CYL.friction + 0.02 * abs(f_ref))
+        for k in ("pressure_a", "pressure_b"):
+            assert 0.0 <= out[k].min() and out[k].max() <= SUP.pressure
+    with pytest.raises(ModelError, match="cylinders"):
+        hyq_leg(cylinders="bellows")
