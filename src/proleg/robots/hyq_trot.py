@@ -24,6 +24,12 @@ joint stops are the cylinders' end-of-stroke stops. The trot law's torque is the
 HyQ's pressure force loop (:func:`proleg.control.hydraulic.hydraulic_servo`, 1 kHz); the seal
 friction (20 N + 200 N s/m) acts as a continuous joint friction reflected through the lever arm
 at mid-stroke (0.045 m).
+
+Known limits (measured on this branch, issue 33 report): neither relief valves nor cavitation
+are modelled, so a chamber compressed by an impact with the valve nearly closed can exceed the
+supply and an expanding one can go below the tank (a 3 s hydraulic trot reached 28 MPa and
+−17 MPa after 2.2 s, with the gait degrading as the speed passed ~0.8 m/s); the energy balance
+closed to 0.04 % of the energy drawn.
 """
 
 from __future__ import annotations
