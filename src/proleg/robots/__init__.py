@@ -9,10 +9,13 @@
   lower leg; :func:`flegx_jump` its countermovement jump with metrics.
 - :func:`hyq`: the whole HyQ quadruped from its URDF (example-robot-data), PD servos and foot
   contacts (:mod:`proleg.robots.hyq`; its stand scenario is not registered yet: see run_stand).
+- :func:`hyq_trot`: the whole HyQ trotting on hydraulic cylinders with chamber pressures or on
+  ideal torque sources (:mod:`proleg.robots.hyq_trot`); scenario ``proleg run hyq-trot``.
 """
 
 from .hyq_leg import hyq_leg as hyq_leg
 from .hyq import hyq as hyq
+from .hyq_trot import hyq_trot as hyq_trot
 from .flegx import flegx as flegx
 from .flegx_jump import flegx_jump as flegx_jump
 from .scout2 import scout2 as scout2

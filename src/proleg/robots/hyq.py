@@ -71,7 +71,7 @@ def stance_positions(haa=STANCE["haa"], hfe=STANCE["hfe"], kfe=STANCE["kfe"]) ->
 
 def hyq(
     *, drop: float = 0.10, stance: dict | None = None, kp: float = 300.0, kd: float = 30.0, servo_period: float = 1e-3,
-    contact: dict | None = None, urdf=None,
+    contact: dict | None = None, urdf=None, servos: bool = True,
 ):
     """The HyQ quadruped model, standing ``drop`` [m] above the ground (feet clear by ``drop``).
 
@@ -86,6 +86,7 @@ def hyq(
         (≈ 2.4 mm at a quarter of the weight), damping 4e3 N s/m over 1 mm, μ_s 0.9, μ_d 0.7,
         transition velocities v_stiction 0.1 m/s, v_friction 1 m/s (module docstring)
     urdf : path of the URDF (default: example-robot-data's hyq_no_sensors.urdf)
+    servos : bool, add the 12 PD servos (False: no controllers, e.g. for :func:`proleg.robots.hyq_trot`)
     """
     from ..io.urdf import UrdfWarning, load_urdf
     from ..model.control import PID
@@ -99,7 +100,7 @@ def hyq(
         probe = load_urdf(path, initial_positions=q0, feet=())
         lowest = min(probe.marker(f"{leg}_foot").position[2] for leg in LEGS)  # foot-sphere centres (the foot link frames)
         model = load_urdf(path, initial_positions=q0, base_position=(0.0, 0.0, FOOT_RADIUS + drop - lowest), contact=c)
-    for name in model.urdf.joint_names():
+    for name in model.urdf.joint_names() if servos else ():
         model.add_controller(PID(f"{name}.servo", name, kp=kp, kd=kd, setpoint=q0[name], period=servo_period))
     return model
 

@@ -79,7 +79,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..model.contacts import SphereContact
-from ..model.control import PID, DiscreteController, HydraulicActuator
+from ..model.control import PID, DiscreteController, HydraulicActuator, TranslationalActuator
 from ..model.forces import Bushing
 from ..model.joints import Cylindrical, Prismatic, Revolute, Universal
 from ..model.model import Model
@@ -260,6 +260,8 @@ def hyq_leg(
     v_friction: float = D.V_FRICTION,
     gravity: float = 9.81,
     name: str | None = None,
+    cylinders: str = "spring-damper",
+    hydraulics: dict | None = None,
 ) -> Model:
     """The HyQ leg test bench as a proleg Model (module docstring: frames, pins, cylinder geometry).
 
@@ -299,6 +301,17 @@ def hyq_leg(
     foot_damping [N s/m], foot_penetration [m], mu_static, mu_dynamic, v_stiction [m/s],
     v_friction [m/s] : contact law parameters (IMPACT + Coulomb with stiction), assumed.
     gravity : float [m/s²]
+    cylinders : {"spring-damper", "pressure"}
+        the actuator's fidelity: seed 000's spring-damper with a commanded force
+        (:class:`proleg.HydraulicActuator`, k and c of Table 2), or a valve-controlled cylinder
+        with its two chamber pressures as states (:mod:`proleg.drives.hydraulics`) acting along
+        the same pin line, driven by HyQ's pressure force loop under the same joint PD
+        (:func:`proleg.control.hydraulic.hydraulic_servo`; result: ``hydraulic_outputs(result,
+        "hip_servo")``), with the seal friction and end-of-stroke stops on the cylinder's slide.
+        The piston sits at c(θ) − c_min + margin, the triangle's travel over the joint range
+        centred in the stroke. Rigid pins only (``joints="rigid"``).
+    hydraulics : dict, optional, ``cylinder``, ``valve``, ``supply`` (drives.hydraulics objects)
+        and ``force_gain`` for ``cylinders="pressure"``
 
     Returns
     -------
@@ -394,15 +407,24 @@ def hyq_leg(
             model.add_joint(Universal(f"pin{n}", pi, pj, at=at, axis_i=np.cross(_Y, cyl_axis[n]), axis_j=_Y))
 
     # -- cylinders: sliding pair and hydraulic spring-damper ----------------------------------
+    if cylinders not in ("spring-damper", "pressure"):
+        raise ModelError(f"hyq_leg: unknown cylinders {cylinders!r}; valid choices are ['spring-damper', 'pressure'].")
+    if cylinders == "pressure" and joints != "rigid":
+        raise ModelError("hyq_leg: cylinders='pressure' needs joints='rigid' (its servo reads the hip and knee Revolutes).")
     for side, A, B in (("hip", g["A1"], g["B1"]), ("knee", g["A2"], g["B2"])):
         rod, barrel = parts[f"{side}_rod"], parts[f"{side}_cylinder"]
         model.add_joint(Cylindrical(f"{side}_slide", rod, barrel, at=g[f"{side}_slide"], axis=g[f"{side}_e"]))
         mi = model.add_marker(rod, f"{side}_actuator.I", B)
         mj = model.add_marker(barrel, f"{side}_actuator.J", A)
-        model.add_actuator(HydraulicActuator(f"{side}_actuator", mi, mj, stiffness=coef[f"{side}_k"], damping=coef[f"{side}_c"]))
+        if cylinders == "pressure":
+            model.add_actuator(TranslationalActuator(f"{side}_actuator", mi, mj))
+        else:
+            model.add_actuator(HydraulicActuator(f"{side}_actuator", mi, mj, stiffness=coef[f"{side}_k"], damping=coef[f"{side}_c"]))
 
     # -- joint servos ------------------------------------------------------------------------
-    if servo:
+    if servo and cylinders == "pressure":
+        _pressure_servos(model, th1, th2, kp, kd, servo_period, hydraulics or {})
+    elif servo:
         levers = {"hip": D.hip_signed_lever, "knee": D.knee_signed_lever}
         setpoints = {"hip": th1, "knee": th2}
         for side, (mi, mj), pin in (("hip", (hip_i, hip_j), 1), ("knee", (knee_i, knee_j), 4)):
@@ -446,6 +468,42 @@ def hyq_leg(
         parameters=params,
     )
     return model
+
+
+def _pressure_servos(model, th1, th2, kp, kd, period, hyd):
+    """``cylinders="pressure"``: per side a hydraulic servo on the cylinder's slide (piston
+    x = slide translation + x at the modelled pose), its force reference the seed 000 PD on the
+    joint angle through the lever arm, F_ref = (kp (θ_set − θ) − kd θ̇) / (dc/dθ); seal friction
+    and end-of-stroke stops as continuous forces on the slide."""
+    from ..control.hydraulic import hydraulic_servo
+    from ..drives import hydraulics as H
+    from ..model.couplers import JointFriction, JointStop
+
+    cyl = hyd.get("cylinder") or H.Cylinder()
+    geo = {
+        "hip": (D.hip_cylinder_length, D.hip_signed_lever, D.HFE_RANGE_DEG, th1),
+        "knee": (D.knee_cylinder_length, D.knee_signed_lever, D.KFE_RANGE_DEG, th2),
+    }
+    for side, (length, lever, rng, th0) in geo.items():
+        c = np.asarray(length(np.deg2rad(np.linspace(*rng, 241))))
+        margin = 0.5 * (cyl.stroke - (c.max() - c.min()))
+        if margin < 0:
+            raise ModelError(f"hyq_leg: cylinder stroke {cyl.stroke} m is shorter than the {side} triangle's travel {c.max() - c.min():.4f} m.")
+        x_mid = float(length(th0)) - c.min() + margin
+
+        def piston(s, x_mid=x_mid):
+            return s + x_mid, jnp.ones_like(s)
+
+        def reference(t, state, s, sd, side=side, lever=lever, th0=th0):
+            th, thd = state.joint_angle(side), state.joint_rate(side)
+            return (kp * (th0 - th) - kd * thd) / lever(th)
+
+        model.add_controller(hydraulic_servo(f"{side}_servo", [f"{side}_slide"], [f"{side}_actuator"], piston, cylinder=cyl,
+                                             valve=hyd.get("valve"), supply=hyd.get("supply"), reference=reference, period=period,
+                                             translation=True, x0=[0.0], force_gain=hyd.get("force_gain", 0.4)))
+        model.add_force(JointFriction(f"{side}_seal", f"{side}_slide", friction=cyl.friction, damping=cyl.viscous, slip_rate=1e-3, dof="translation"))
+        model.add_force(JointStop(f"{side}_end_stops", f"{side}_slide", lower=-x_mid, upper=cyl.stroke - x_mid, stiffness=1e8, damping=1e4,
+                                  penetration=1e-4, dof="translation"))
 
 
 def _pin_angle(RI, RJ):

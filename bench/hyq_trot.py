@@ -1,0 +1,51 @@
+"""HyQ trot (issue 33): wall time, steps/s and where the time goes, both actuator variants.
+
+    PYTHONPATH=src nice -n 5 python bench/hyq_trot.py [t_end=8.0] [variants=hydraulic,torque]
+
+Prints a table and writes bench/results/hyq_trot.csv: per variant the simulated time, integrator
+steps, wall time of the first (compile included) run, steps/s, and the split assemble /
+compile+run / outputs (metrics post-processing), with the machine's load average (the 2-core
+machine is shared: the load says how much of it the run had).
+"""
+
+import os
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+
+
+def main(t_end=8.0, variants=("hydraulic", "torque")):
+    from proleg.analyses.simulate import simulate
+    from proleg.assembly.assemble import assemble
+    from proleg.robots.hyq_trot import TrotRun, hyq_trot_model, trot_metrics
+    from proleg.solvers.galpha import GeneralizedAlpha
+
+    rows = []
+    for a in variants:
+        t0 = time.perf_counter()
+        model = hyq_trot_model(1.0, a)
+        system = assemble(model)
+        t1 = time.perf_counter()
+        res = simulate(system, t_end=t_end, dt_output=5e-3, integrator=GeneralizedAlpha(jacobian_reuse=True), progress=False)
+        t2 = time.perf_counter()
+        m = trot_metrics(TrotRun(res, {}, a, model.trot["gait"], t2 - t1))
+        t3 = time.perf_counter()
+        st = res.stats
+        rows.append({
+            "variant": a, "t_end [s]": t_end, "steps": st["steps"], "rejected": st["rejected"], "newton": st["newton_iterations"],
+            "jacobians": st["jacobians"], "assemble [s]": t1 - t0, "compile+simulate [s]": t2 - t1, "metrics [s]": t3 - t2,
+            "total [s]": t3 - t0, "steps/s": st["steps"] / (t2 - t1), "forward_speed": m["forward_speed"], "fell": m["fell"],
+            "load (1 min)": os.getloadavg()[0],
+        })
+        print(pd.DataFrame(rows).to_string(index=False), flush=True)
+    out = Path(__file__).parent / "results"
+    out.mkdir(exist_ok=True)
+    pd.DataFrame(rows).to_csv(out / "hyq_trot.csv", index=False)
+
+
+if __name__ == "__main__":
+    t_end = float(sys.argv[1]) if len(sys.argv) > 1 else 8.0
+    variants = tuple(sys.argv[2].split(",")) if len(sys.argv) > 2 else ("hydraulic", "torque")
+    main(t_end, variants)

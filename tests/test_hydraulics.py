@@ -1,0 +1,215 @@
+"""Valve-controlled hydraulic cylinder with pressure states (drives/hydraulics.py,
+control/hydraulic.py) against closed forms.
+
+Element level (no mechanism):
+* blocked cylinder, constant spool opening: chamber A fills from the supply with
+  dp/dt = β K_v x_v √(p_s − p)/V_A, so √(p_s − p(t)) = √(p_s − p_0) − β K_v x_v t/(2 V_A)
+  (turbulent law; B drains to tank by the same form); and β = V_A Δp / ΔV with ΔV = ∫ Q_A dt
+  the injected volume over a short interval (Δp ≪ β);
+* closed valve, piston pushed in: p = p_0 + β ln(V_0/V) (mass conservation, exact);
+* the port power identity p_s Q_s − p_t Q_t − P_valve = p_A Q_A + p_B Q_B (round-off).
+
+In a model (50 kg piston on a prismatic joint, gravity off, no friction), integrated by
+proleg.simulate (generalized-α, rtol 1e-6) with the oil in the sampled element state:
+* steady velocity at a constant opening x_v: p_A A_A = p_B A_B and Q_A = A_A v, −Q_B = A_B v
+  give v = K_v x_v √(A_A p_s / (A_A³ + A_B³));
+* chamber masses V e^{p/β} change by exactly the integrated mass flows;
+* energy: drawn = valve loss + port energy; port energy = oil work on the piston + Δ compression.
+"""
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import proleg as pl
+from proleg.control.hydraulic import hydraulic_outputs, hydraulic_servo, pd_reference
+from proleg.drives import hydraulics as H
+from proleg.errors import ModelError
+
+CYL, VAL, SUP = H.Cylinder(), H.ServoValve(), H.Supply()
+
+
+def _blocked(xv, p0a, p0b, T, substeps, x=0.04):
+    pa, pb = jnp.asarray([p0a]), jnp.asarray([p0b])
+    xv = jnp.asarray([xv])
+    return H.integrate_chambers(CYL, VAL, SUP, pa, pb, xv, jnp.zeros(1), xv, jnp.asarray([x]), jnp.asarray([x]), T, substeps)
+
+
+def test_blocked_cylinder_closed_form_and_first_order_convergence():
+    xv, x, T = 0.3, 0.04, 1e-3
+    va, vb = CYL.volumes(x)
+    p0a, p0b = 4e6, 12e6
+    c_a = CYL.bulk_modulus * VAL.flow_gain * xv / va
+    c_b = CYL.bulk_modulus * VAL.flow_gain * xv / vb
+    pa_exact = SUP.pressure - (math.sqrt(SUP.pressure - p0a) - c_a * T / 2) ** 2
+    pb_exact = (math.sqrt(p0b) - c_b * T / 2) ** 2
+    assert SUP.pressure - pa_exact > 10 * VAL.laminar_drop and pb_exact > 10 * VAL.laminar_drop  # turbulent all the way
+    errs = []
+    for n in (16, 32, 64):
+        pa, pb, *_ = _blocked(xv, p0a, p0b, T, n, x)
+        errs.append((abs(float(pa[0]) - pa_exact), abs(float(pb[0]) - pb_exact)))
+    errs = np.array(errs)
+    # implicit Euler: first order (error halves with h); the smoothed orifice law adds
+    # (Δp_l/Δp)²/4 ≈ 1e-3 relative to the flow, bounded here by 5e3 Pa on a 3-10 MPa change
+    slopes = np.log2(errs[:-1] / errs[1:])
+    assert np.all(slopes > 0.8), (errs, slopes)
+    assert errs[-1, 0] < 2e-3 * abs(pa_exact - p0a) and errs[-1, 1] < 2e-3 * abs(pb_exact - p0b)
+
+
+def test_blocked_cylinder_gives_bulk_modulus():
+    """β = V Δp/ΔV over a short interval: Δp = 0.4 MPa ≪ β, so the density change e^{Δp/β} − 1
+    (4e-4) bounds the difference."""
+    x, T = 0.04, 2e-4
+    pa, pb, xv, vv, acc = _blocked(0.2, 8e6, 8e6, T, 64, x)
+    va, _ = CYL.volumes(x)
+    dv = float(acc["mass_a"][0]) * math.exp(-8e6 / CYL.bulk_modulus)  # ∫ Q dt at the initial density
+    beta = va * (float(pa[0]) - 8e6) / dv
+    assert float(pa[0]) - 8e6 > 1e5
+    assert beta == pytest.approx(CYL.bulk_modulus, rel=2e-3)
+
+
+def test_closed_valve_compression_conserves_mass():
+    """Valve closed, piston pushed 5 mm into chamber A: p_A = p_0 + β ln(V_0/V) exactly."""
+    x0, x1 = 0.04, 0.035
+    pa, pb, xv, vv, acc = H.integrate_chambers(CYL, VAL, SUP, jnp.asarray([2e6]), jnp.asarray([3e6]), jnp.zeros(1), jnp.zeros(1),
+                                               jnp.zeros(1), jnp.asarray([x0]), jnp.asarray([x1]), 1e-3, 8)
+    (va0, vb0), (va1, vb1) = CYL.volumes(x0), CYL.volumes(x1)
+    b = CYL.bulk_modulus
+    assert float(pa[0]) == pytest.approx(2e6 + b * math.log(va0 / va1), rel=1e-12)
+    assert float(pb[0]) == pytest.approx(3e6 + b * math.log(vb0 / vb1), rel=1e-12)
+    # the oil's work on the piston, ∫ p dV, against the closed form β (V ln(V/V0) ... ) bound
+    assert float(acc["piston"][0]) < 0  # compressing A: the piston works on the oil
+
+
+def test_port_power_identity():
+    rng = np.random.default_rng(3)
+    xv = jnp.asarray(rng.uniform(-1.2, 1.2, 64))
+    pa = jnp.asarray(rng.uniform(-1e6, 17e6, 64))
+    pb = jnp.asarray(rng.uniform(-1e6, 17e6, 64))
+    f = H.valve_flows(VAL, xv, pa, pb, SUP)
+    lhs = f["drawn"] - f["loss"]
+    rhs = pa * f["qa"] + pb * f["qb"]
+    scale = SUP.pressure * np.abs(np.asarray(f["qs"]) + np.asarray(f["qt"])) + 1e-30
+    np.testing.assert_array_less(np.abs(np.asarray(lhs - rhs)), 1e-13 * scale + 1e-20)
+    assert np.all(np.asarray(f["loss"]) >= 0)
+
+
+# ---------------------------------------------------------------------------------------------
+M_PISTON, X_START, XV = 50.0, 0.01, 0.2
+
+
+def _piston_model(valve_command=None, reference=None, cylinder=CYL, period=1e-3):
+    model = pl.Model("piston", gravity=(0, 0, 0))
+    part = model.add_part("piston", M_PISTON, (0.1, 0.1, 0.1), (0, 0, 0))
+    model.add_joint(pl.Prismatic("slide", part, model.ground, at=(0, 0, 0), axis=(1, 0, 0)))
+    model.add_actuator(pl.JointActuator("rod", "slide"))
+    piston = lambda th: (th + X_START, jnp.ones_like(th))  # noqa: E731
+    model.add_controller(hydraulic_servo("cyl", ["slide"], ["rod"], piston, cylinder=cylinder, translation=True, period=period,
+                                         valve_command=valve_command, reference=reference, x0=[0.0]))
+    return model
+
+
+@pytest.fixture(scope="module")
+def free_piston():
+    model = _piston_model(valve_command=lambda t: XV)
+    return pl.simulate(pl.assemble(model), t_end=0.25, dt_output=1e-3)
+
+
+def test_free_piston_steady_velocity_follows_orifice_law(free_piston):
+    res = free_piston
+    aa, ab = CYL.area_a, CYL.area_b
+    v_exact = VAL.flow_gain * XV * math.sqrt(aa * SUP.pressure / (aa**3 + ab**3))
+    x = np.asarray(res.joint("slide").translation)
+    t = res.t
+    v = np.gradient(x, t)
+    late = t > 0.15
+    # smoothed orifice (Δp_l/Δp)² ≈ 4e-4 and the spool at x_v to 1e-10: 1e-3 covers both
+    np.testing.assert_allclose(v[late], v_exact, rtol=1e-3)
+    out = hydraulic_outputs(res, "cyl")
+    np.testing.assert_allclose(out["flow_a"][late, 0], aa * v_exact, rtol=1e-3)
+    np.testing.assert_allclose(out["flow_b"][late, 0], -ab * v_exact, rtol=1e-3)
+    assert out["valve_position"][-1, 0] == pytest.approx(XV, rel=1e-9)
+
+
+def test_free_piston_conserves_mass_and_energy(free_piston):
+    out = hydraulic_outputs(free_piston, "cyl")
+    b = CYL.bulk_modulus
+    va, vb = CYL.volumes(out["piston_position"][:, 0])
+    ma = va * np.exp(out["pressure_a"][:, 0] / b)
+    mb = vb * np.exp(out["pressure_b"][:, 0] / b)
+    # mass: V e^{p/β}, with V from the mechanism's piston position, changes only by what the
+    # valve moved (the element's sub-step fluxes): round-off of ~1e5 sub-steps
+    scale = ma[0] + mb[0]
+    np.testing.assert_allclose(ma - ma[0], out["mass_flow_a"][:, 0], rtol=0, atol=1e-10 * scale)
+    np.testing.assert_allclose(mb - mb[0], out["mass_flow_b"][:, 0], rtol=0, atol=1e-10 * scale)
+    assert out["mass_flow_a"][-1, 0] > 1e-3 * scale  # the valve did move oil
+    drawn, loss, port = out["energy_drawn"][-1, 0], out["energy_valve_loss"][-1, 0], out["energy_port"][-1, 0]
+    assert drawn > 0 and drawn - loss == pytest.approx(port, rel=1e-12)
+    # port energy = oil work on the piston + stored compression energy (V p²/2β is the
+    # constant-volume form; the piston moved: within 2 % of the drawn energy)
+    d_comp = out["compression_energy"][-1, 0] - out["compression_energy"][0, 0]
+    assert port == pytest.approx(out["work_oil_on_piston"][-1, 0] + d_comp, abs=0.02 * drawn)
+    # the mechanism received the oil's work (held force × travel) to the coupling error
+    ke = 0.5 * M_PISTON * np.gradient(free_piston.joint("slide").translation, free_piston.t)[-1] ** 2
+    assert out["work_on_joint"][-1, 0] == pytest.approx(ke, rel=2e-2)
+
+
+def test_pressure_force_loop_tracks_a_step():
+    """Blocked piston (a 200 t mass: it moves < 0.01 mm): a force step of 1 kN at 10 ms. The
+    loop gain ω_c = k_F β K_v (A_A √(p_s − p_A)/V_A + A_B √p_B/V_B)/F_max (≈ 400 rad/s at
+    k_F = 0.4): 90 % within 3/ω_c plus a 2 ms sample-and-valve delay, no more than 15 %
+    overshoot, and the error below 1 % after 10/ω_c."""
+    step = lambda t, state, th, thd: jnp.where(t >= 0.01, 1000.0, 0.0)  # noqa: E731
+    global M_PISTON
+    m0, M_PISTON = M_PISTON, 2.0e5
+    try:
+        model = _piston_model(reference=step)
+    finally:
+        M_PISTON = m0
+    res = pl.simulate(pl.assemble(model), t_end=0.06, dt_output=2.5e-4)
+    out = hydraulic_outputs(res, "cyl")
+    F, t = out["force"][:, 0], res.t
+    pa, pb = 0.5 * SUP.pressure, 0.5 * SUP.pressure * CYL.area_a / CYL.area_b
+    va, vb = CYL.volumes(X_START)
+    w_c = 0.4 * CYL.bulk_modulus * VAL.flow_gain * (CYL.area_a * math.sqrt(SUP.pressure - pa) / va + CYL.area_b * math.sqrt(pb) / vb) / (
+        SUP.pressure * CYL.area_a)
+    t90 = t[np.argmax(F >= 900.0)]
+    assert t90 - 0.01 < 3 / w_c + 2e-3, (t90, w_c)
+    assert F.max() < 1150.0
+    late = t > 0.01 + 10 / w_c
+    np.testing.assert_allclose(F[late], 1000.0, rtol=1e-2)
+
+
+def test_hydraulic_servo_errors():
+    with pytest.raises(ModelError, match="one actuator per joint"):
+        hydraulic_servo("h", ["a", "b"], ["x"], lambda th: (th, th))
+    with pytest.raises(ModelError, match="whole multiple"):
+        hydraulic_servo("h", ["a"], ["x"], lambda th: (th, th), period=1e-3, outer_period=2.5e-3)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="known open problem (issue 33 report): at 0.6 s the hip rod force is 114 N against a PD "
+                   "force reference of 31 N; the steady force loop should close this (not yet explained)")
+def test_hyq_leg_pressure_cylinders_hold_the_static_load():
+    """The fidelity switch on the HAL bench model: hyq_leg(cylinders="pressure") standing on the
+    plate (dropped from 5 mm) settles with the rod forces p_A A_A − p_B A_B equal to the PD's
+    force reference (kp (θ_set − θ) − kd θ̇)/(dc/dθ): the pressure loop has no steady error
+    (the blocked valve integrates), up to the 20 N seal friction the slide may hold; the chamber
+    pressures stay in [0, p_s]. (Against the spring-damper form the settled poses differ: its
+    Table 2 spring adds joint stiffness, so the static forces are compared per model.)"""
+    from proleg.robots.hyq_leg import hyq_leg
+
+    kw = dict(joints="rigid", gain="high", drop_height=0.005)
+    res = pl.simulate(pl.assemble(hyq_leg(**kw, cylinders="pressure")), t_end=0.6, dt_output=2e-3)
+    for s in ("hip", "knee"):
+        out = hydraulic_outputs(res, f"{s}_servo")
+        f, f_ref = out["measured_force"][-1, 0], out["torque_reference"][-1, 0]
+        assert abs(f) > 50.0  # it carries load
+        assert f == pytest.approx(f_ref, abs=CYL.friction + 0.02 * abs(f_ref))
+        for k in ("pressure_a", "pressure_b"):
+            assert 0.0 <= out[k].min() and out[k].max() <= SUP.pressure
+    with pytest.raises(ModelError, match="cylinders"):
+        hyq_leg(cylinders="bellows")
