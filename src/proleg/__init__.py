@@ -162,9 +162,10 @@ from .model.flexible import FlexibleBody as FlexibleBody
 
 
 def __getattr__(name):
-    """``proleg.robots`` and ``proleg.study`` load on first use: they import pandas and the
-    robots' data, which a model of one's own does not need (``import proleg`` stays short)."""
-    if name in ("robots", "study"):
+    """``proleg.robots``, ``proleg.papers`` and ``proleg.study`` load on first use: they import
+    pandas and the robots' data, which a model of one's own does not need (``import proleg``
+    stays short)."""
+    if name in ("robots", "papers", "study"):
         import importlib
 
         return importlib.import_module(f".{name}", __name__)

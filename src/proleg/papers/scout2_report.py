@@ -17,8 +17,8 @@ import pandas as pd
 from ..assembly.assemble import assemble
 from ..assembly.system import System
 from ..units import deg
-from . import scout2_data as D
-from .scout2 import LEG_STATES, LEGS, scout2
+from ..robots import scout2_data as D
+from ..robots.scout2 import LEG_STATES, LEGS, scout2
 from .scout2_bound import BoundRun, energy_balance, pitch_deg, scout2_bound
 
 __all__ = ["run_bound", "variant_system", "bound_figures", "LOW_SPEED_SETPOINTS", "NOMINAL_START"]

@@ -37,8 +37,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from . import flegx_data as D
-from .flegx import flegx
+from ..robots import flegx_data as D
+from ..robots.flegx import flegx
 from .flegx_jump import MotionLaw, _add_motions, jump_metrics
 
 __all__ = ["STUDY_T_AFTER", "study_groups", "group_study", "run_table_i", "ranking"]

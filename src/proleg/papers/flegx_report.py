@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from . import flegx_data as D
+from ..robots import flegx_data as D
 
 COLORS = {"rigid": "#444444", "prbm": "#d62728", "cb": "#1f77b4", "ideal": "#2ca02c", "worm": "#9467bd"}
 LABELS = {"rigid": "rigid link", "prbm": "PRBM (Eqs. 8-11)", "cb": "Craig-Bampton (LFM)", "ideal": "ideal gears", "worm": "worm gears (η ≈ 0.60)"}

@@ -11,9 +11,9 @@ import numpy as np
 import pandas as pd
 
 from ..report import Report
-from . import hyq_data as D
+from ..robots import hyq_data as D
 from . import hyq_tests as T
-from .hyq_leg import BUSHING_PINS, PIN_NAMES
+from ..robots.hyq_leg import BUSHING_PINS, PIN_NAMES
 
 MODELS = ("rigid", "bushings4", "bushings8")
 LABELS = {"rigid": "RCM (rigid pins)", "bushings4": "FCM, 4 bushings (1, 2, 3, 6)", "bushings8": "FCM, 8 bushings (1-6)"}

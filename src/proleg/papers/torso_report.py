@@ -105,7 +105,7 @@ def run_torso_modal(out_dir="results/torso-modal", *, n_hits: int = 5, f_max: fl
     """The torso-modal scenario; returns the HTML report path."""
     from ..identify.hammer import comparison_table, modal, synthetic_hammer_test
     from ..report.html import Report
-    from .torso import TORSO_DEFAULTS, table2_comparison, table2_modes, torso_modal
+    from ..robots.torso import TORSO_DEFAULTS, table2_comparison, table2_modes, torso_modal
 
     t0 = time.perf_counter()
     out = Path(out_dir)

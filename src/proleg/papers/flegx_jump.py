@@ -70,8 +70,8 @@ import numpy as np
 from ..errors import ModelError
 from ..model.control import Motion
 from ..units import deg
-from . import flegx_data as D
-from .flegx import check_angles, flegx
+from ..robots import flegx_data as D
+from ..robots.flegx import check_angles, flegx
 
 __all__ = ["MotionLaw", "flegx_jump", "JumpResult", "worm_torques", "worm_friction", "jump_metrics", "jump_flight", "worm_drive_outputs"]
 

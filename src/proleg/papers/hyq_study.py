@@ -67,7 +67,7 @@ def bushing_study(
     [N]`` at the study's output times, 1 ms from 0): adds the outputs ``rms_hip_vs_rigid`` and
     ``rms_knee_vs_rigid`` [N]. ``system``: the assembled 8-bushing leg, if already built."""
     from ..assembly.assemble import assemble
-    from .hyq_leg import hyq_leg
+    from ..robots.hyq_leg import hyq_leg
 
     if system is None:
         system = assemble(hyq_leg(joints="bushings8", gain=gain, drop_height=drop_height, actuators="drop"))
