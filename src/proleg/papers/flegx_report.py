@@ -234,7 +234,7 @@ def run_machinery(out_dir="results/flegx-machinery", progress: bool = True, work
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     # a slower push than flegx-jump's, away from the leg's bounce period, tuned with worm gears in the dynamics
-    # (measured 2026-11-25; Fig. 4: 50 mm, 447 MPa, ≈ 32 mm): t_push 0.32 s: 47.6 mm, 437 MPa, 30.4 mm (chosen);
+    # (Fig. 4: 50 mm, 447 MPa, ≈ 32 mm): t_push 0.32 s: 47.6 mm, 437 MPa, 30.4 mm (chosen);
     # 0.35 s: 53.0 mm, 402 MPa, 28.0 mm; extend (-22°, 44°) with 0.30 s: 47.2 mm, 483 MPa (447 at take-off), 33.4 mm
     # (one clean flight). With 0.32 s the foot first leaves at 1.18 s and touches again at 1.33 s while the leg still
     # extends; the apex (guide 1.41 s) is in the flight from 1.38 s.

@@ -17,7 +17,7 @@ is done), rich progress.
 simulation, so the variants of a group would share one compile that way too (checked: every
 variant of a group has the same key, the planar rows being canonical). The table ``apply``
 stays because it is cheaper and simpler here: a builder study traces every variant's
-simulation to key it (~4 s each on the 2-core VM, ~100 s more for Table I), and an output
+simulation to key it (seconds per variant, minutes more for Table I), and an output
 function sees only the Result, whose System is the group base's, while
 :func:`~proleg.robots.flegx_jump.jump_metrics` needs each variant's own model
 (:meth:`_Variants.key_of` finds it from the body masses).

@@ -414,7 +414,7 @@ def drop_test(
     system = assemble(model) if system is None else system
     # dt_max given explicitly: the same solver options for any t_end, so runs of one System of
     # different lengths share the compiled integrator. At most the 1 ms the bench records at
-    # (the step resolves the contact there); finer outputs come from the dense output (issue 20)
+    # (the step resolves the contact there); finer outputs come from the dense output
     res = simulate(system, t_end=t_end, dt_output=dt_output, integrator=GeneralizedAlpha(dt_max=max(min(dt_output, 1e-2), 1e-3), rtol=rtol, atol=atol), progress=progress)
     df = channels(res, light=light)
     tables = {"channels": df} if light else {"channels": df, "summary": pd.DataFrame([drop_summary(df)])}

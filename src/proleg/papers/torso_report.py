@@ -6,8 +6,8 @@ stiffer, the mounts 10 % softer, the frame tubes 5 % softer: what a real build d
 comparison looks like Table 2 (differences of a few per cent); the identification itself is
 checked against the prototype's own modes (its error should be below 1 % in frequency).
 
-Measured (2026-11-25, the scenario's identification on its synthetic test, /tmp script replaying
-run_torso_modal): 11 modes identified, every one within 0.45 % of the prototype's mode (the bounce
+Measured (the scenario's identification on its synthetic test, replaying run_torso_modal):
+11 modes identified, every one within 0.45 % of the prototype's mode (the bounce
 1.982 Hz -0.03 %, the heavy masses' vertical modes 31.12 and 37.43 Hz +0.02 / +0.03 %, the frame
 modes up to 191 Hz) and its damping within 12.4 % (the requirement: 1 % and 20 %). The spurious pick
 of the previous version (67.9 Hz at 9 % damping standing in for the prototype's 72.8 and 79.3 Hz

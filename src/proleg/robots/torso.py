@@ -29,7 +29,7 @@ two coupled modes flips, and rounding its values moves the frame rows by 25 %. T
 masses on 12 mounts does not hold three frame modes in 120..152 Hz; the paper's tetrahedral model
 of the real frame (geometry not printed) does.
 
-Are the paired frame rows the right kinds? (measured 2026-11-25, /tmp checks, not a bench script):
+Are the paired frame rows the right kinds? (checked by hand, not a bench script):
 the bare frame (heavy masses set to 10 g) has its first elastic modes at 140.2 and 146.0 Hz, then
 276 Hz -- inside Table 2's frame rows (120 / 143 / 152 Hz numerical). With the 30 kg of heavy
 masses on their mounts, the modes the strain-energy classifier calls "frame" fall to 81.8 and
@@ -38,7 +38,7 @@ them the wrong way for a frame mode (50 x 4 mm tube: 54 / 69 / 71 Hz, -55 to -52
 51 / 64 / 66 Hz) and a frame with 3 cross members instead of 5 gives 67 / 89 / 95 Hz: the rows are
 governed by how the masses couple to the frame (mount positions and their rotational stiffness,
 50 N m/rad here), which seed 001 does not describe. No 2-3-parameter calibration within physical
-ranges was found in the time of issue 17's last session; what to try next: mounts at the frame's
+ranges has been found; what to try next: mounts at the frame's
 nodal lines, a stiffer mount rotation (a rubber mount of this size: ~1e2-1e3 N m/rad), then pair
 the Table 2 frame rows with the modes of largest frame-strain share above the mount modes.
 """
