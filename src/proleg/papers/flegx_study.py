@@ -19,10 +19,10 @@ variant of a group has the same key, the planar rows being canonical). The table
 stays because it is cheaper and simpler here: a builder study traces every variant's
 simulation to key it (seconds per variant, minutes more for Table I), and an output
 function sees only the Result, whose System is the group base's, while
-:func:`~proleg.robots.flegx_jump.jump_metrics` needs each variant's own model
+:func:`~proleg.papers.flegx_jump.jump_metrics` needs each variant's own model
 (:meth:`_Variants.key_of` finds it from the body masses).
 
-Simulated window: the jump of :func:`~proleg.robots.flegx_jump.flegx_jump` (same motion law
+Simulated window: the jump of :func:`~proleg.papers.flegx_jump.flegx_jump` (same motion law
 for every variant) up to ``STUDY_T_AFTER`` after the end of the push: take-off and apex (Table
 I's "investigated movement was the take-off phase"); a variant whose apex falls on the last
 output is flagged (``apex_in_window`` false).

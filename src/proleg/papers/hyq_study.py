@@ -6,7 +6,7 @@ from the rigid leg's forces as two more outputs.
 
 The stiffness is one scalar k [N/m] for every pin: each bushing's 6×6 stiffness and damping
 are the nominal ones scaled by k / k_nominal — the same variant as
-:func:`~proleg.robots.hyq_tests.variant_system` (damping proportional to stiffness,
+:func:`~proleg.papers.hyq_tests.variant_system` (damping proportional to stiffness,
 ``BUSHING_DAMPING_BETA``), written with jnp so that every variant runs in one vmap batch.
 """
 

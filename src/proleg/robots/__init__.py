@@ -11,7 +11,7 @@ in :mod:`proleg.papers`, which imports these builders; nothing here imports it.
 - :func:`flegx`: the FLEGX flexible jumping leg (seed 002), rigid / PRBM / Craig-Bampton
   lower leg; its countermovement jump with metrics is :func:`proleg.papers.flegx_jump`.
 - :func:`hyq`: the whole HyQ quadruped from its URDF (example-robot-data), PD servos and foot
-  contacts (:mod:`proleg.robots.hyq`; its stand scenario is not registered yet: see run_stand).
+  contacts (:mod:`proleg.robots.hyq`; its stand scenario, ``proleg run hyq-stand``, is run_stand there).
 """
 
 from .hyq_leg import hyq_leg as hyq_leg

@@ -47,7 +47,7 @@ Bodies (seed 002 §II, Fig. 1; sagittal plane x-z, pins along +y; angles in ``fl
   against the ground z = 0, frictionless by default (the guide carries the horizontal loads).
 
 The modelled (initial) pose is the standing pose (θ1, θ2) = ``stand`` with the foot's lowest
-point ``clearance`` above the ground. Joint motions (:func:`proleg.robots.flegx_jump`) are
+point ``clearance`` above the ground. Joint motions (:func:`proleg.papers.flegx_jump`) are
 imposed relative to this pose, on the wheels (ideal gears) or on the worms (worm gears).
 """
 
