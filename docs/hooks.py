@@ -86,7 +86,7 @@ def bench_markdown(name: str) -> str:
     out, note = [], ""
     for line in path.read_text().splitlines():
         if line.startswith("# "):
-            out.append("### " + line[2:])
+            out.append("### " + re.sub(r" \(issue \d+\)", "", line[2:]))
             continue
         m = _HEADER.match(line)
         if m:

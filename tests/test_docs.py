@@ -1,16 +1,16 @@
 """The documentation cannot rot: every README code block and every docs example runs, and the
 site builds with warnings as errors (``mkdocs build --strict``, as CI does).
 
-The docs examples are the ``python`` blocks of docs/**/*.md; each page's blocks run in order in
-one namespace per markdown-exec session, as the site build runs them. A python block that the
-build would not execute (no ``exec="on"``) is refused: it could rot unseen.
+The docs examples are the ``python`` blocks of docs/**/*.md. A python block that the build would
+not execute (no ``exec="on"``) is refused: it could rot unseen. With the docs tools installed the
+strict build runs them (markdown-exec; a failing block fails --strict); without them each page's
+blocks run here, in order, one namespace per markdown-exec session, as the build would run them.
 """
 
 from __future__ import annotations
 
 import os
 import re
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -49,10 +49,24 @@ def test_the_docs_have_examples_and_the_readme_has_code():
     assert blocks(ROOT / "README.md"), "README.md has no python block"
 
 
+def test_every_docs_python_block_is_executed_by_the_build():
+    for page in DOC_PAGES:
+        for opts, code in blocks(page):
+            assert 'exec="on"' in opts, f"{page.name}: a python block without exec=\"on\" is not run by the build:\n{code[:200]}"
+
+
+def _docs_tools() -> str | None:
+    """The first docs tool that is missing, or None."""
+    return next((m for m in ("mkdocs", "material", "mkdocstrings_handlers.python", "markdown_exec") if not _has_module(m)), None)
+
+
 @pytest.mark.parametrize("page", DOC_PAGES, ids=lambda p: str(p.relative_to(DOCS)))
 def test_docs_examples_run(page):
-    for opts, code in blocks(page):
-        assert 'exec="on"' in opts, f"{page.name}: a python block without exec=\"on\" is not run by the build:\n{code[:200]}"
+    """Without the docs tools, the examples run here; with them, test_mkdocs_build_strict runs
+    every one of them (markdown-exec executes the blocks, and a failing block fails --strict),
+    so running them twice would only double the suite's compile time."""
+    if _docs_tools() is None:
+        pytest.skip("the docs examples run in test_mkdocs_build_strict (markdown-exec; a failing block fails --strict)")
     for name, code in _sessions(page).items():
         p = _run(code, ROOT)
         assert p.returncode == 0, f"{page.name} [{name}]:\n{p.stderr[-3000:]}"
@@ -71,11 +85,9 @@ def test_readme_code_blocks_run(tmp_path):
 def test_mkdocs_build_strict(tmp_path):
     """``mkdocs build --strict`` into a temporary folder: broken links, missing pages, docstrings
     mkdocstrings cannot parse and failing examples are errors."""
-    if shutil.which("mkdocs") is None and not _has_module("mkdocs"):
-        pytest.skip("mkdocs is not installed: pip install 'proleg[docs]' to build the documentation")
-    for mod in ("material", "mkdocstrings_handlers.python", "markdown_exec"):
-        if not _has_module(mod):
-            pytest.skip(f"{mod} is not installed: pip install 'proleg[docs]' to build the documentation")
+    missing = _docs_tools()
+    if missing:
+        pytest.skip(f"{missing} is not installed: pip install 'proleg[docs]' to build the documentation")
     env = dict(os.environ, PYTHONPATH=str(ROOT / "src") + os.pathsep + os.environ.get("PYTHONPATH", ""), MPLBACKEND="Agg")
     p = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(tmp_path / "site")],
                        cwd=ROOT, env=env, capture_output=True, text=True, timeout=900)

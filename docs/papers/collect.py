@@ -26,8 +26,21 @@ import pandas as pd
 ROOT = Path(__file__).resolve().parents[2]
 OUT = ROOT / "docs" / "papers" / "tables"
 
-# scenario -> [(Parquet file in results/NAME/, title, columns to keep or None for all)]
+def _drop_summary(df: pd.DataFrame) -> pd.DataFrame:
+    """hyq-drop writes its channels (drop.parquet, one block per model); its summary table of peaks
+    and settling is recomputed from them with the report's own functions."""
+    from proleg.papers.hyq_report import summary_table
+    from proleg.papers.hyq_tests import drop_summary
+
+    order = list(dict.fromkeys(df["model"]))
+    summ = summary_table({m: drop_summary(df[df["model"] == m].drop(columns="model").reset_index(drop=True)) for m in order})
+    return summ.reset_index()
+
+
+# scenario -> [(Parquet file in results/NAME/, title, columns to keep, None for all, or a function
+# of the table that derives the one to show)]
 TABLES = {
+    "hyq-drop": [("drop.parquet", "Drop test: peaks, settling and differences from the rigid leg (seed 000 Fig. 5, seed 001)", _drop_summary)],
     "hyq-static": [("static.parquet", "Static test: payloads on the slider, pose, cylinder forces and ground reaction", None)],
     "torso-modal": [("table2_comparison.parquet", "Seed 001 Table 2 against the FE model and the identified prototype", None)],
     "flegx-jump": [("metrics.parquet", "Countermovement jump, No. 4, 250×70×3 link: rigid vs PRBM vs Craig–Bampton", None)],
@@ -61,7 +74,9 @@ def collect(name: str, results: Path, wall_s: float | None) -> Path:
     tables = []
     for file, title, cols in TABLES[name]:
         df = pd.read_parquet(results / file)
-        if cols:
+        if callable(cols):
+            df = cols(df)
+        elif cols:
             df = df[cols]
         if not isinstance(df.index, pd.RangeIndex):
             df = df.reset_index()
