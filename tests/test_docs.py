@@ -90,7 +90,7 @@ def test_mkdocs_build_strict(tmp_path):
         pytest.skip(f"{missing} is not installed: pip install 'proleg[docs]' to build the documentation")
     env = dict(os.environ, PYTHONPATH=str(ROOT / "src") + os.pathsep + os.environ.get("PYTHONPATH", ""), MPLBACKEND="Agg")
     p = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(tmp_path / "site")],
-                       cwd=ROOT, env=env, capture_output=True, text=True, timeout=900)
+                       cwd=ROOT, env=env, capture_output=True, text=True, timeout=1800)
     assert p.returncode == 0, p.stderr[-5000:]
     site = tmp_path / "site"
     for page in ("index.html", "performance/index.html", "papers/seed-000/index.html", "reference/proleg/index.html",
