@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test test-slow bench venv clean
+.PHONY: run test test-slow bench docs venv clean
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
@@ -34,5 +34,10 @@ bench: $(STAMP)
 	$(BIN)/python bench/chain.py
 	$(BIN)/python bench/bushing_pendulum.py
 
+# The documentation site into site/ (mkdocs-material; the pages' examples run during the build;
+# the test extra carries the docs tools).
+docs: $(STAMP)
+	PYTHONPATH=src $(BIN)/python -m mkdocs build --strict
+
 clean:
-	rm -rf $(VENV) results .pytest_cache
+	rm -rf $(VENV) results site .pytest_cache

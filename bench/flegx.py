@@ -1,7 +1,7 @@
 """FLEGX countermovement jump (seed 002): wall time per run for each link model, with and
 without compilation.
 
-Model: ``proleg.robots.flegx_jump(configuration=4, link_case=2, link_model=...)`` with the
+Model: ``proleg.papers.flegx_jump(configuration=4, link_case=2, link_model=...)`` with the
 default motion law (stand 0.15 s, squat 0.8 s, hold 0.1 s, push 0.3 s, 0.6 s after the push:
 1.95 s simulated), outputs every 1 ms, generalized-α at rtol 1e-5, atol 1e-6.
 
@@ -39,7 +39,7 @@ _CHILD = r"""
 import json, time, warnings
 t0 = time.perf_counter()
 import proleg as pl
-from proleg.robots import flegx_jump
+from proleg.papers import flegx_jump
 j = flegx_jump(link_model=%r, dt_output=1e-3)
 first = time.perf_counter() - t0
 t1 = time.perf_counter()
@@ -59,8 +59,8 @@ def equal_stress(pushes, stress_mpa, link_model="prbm"):
 
     sys.path.insert(0, str(HERE.parent / "src"))
     from proleg.robots import flegx_data as D
-    from proleg.robots.flegx_jump import MotionLaw
-    from proleg.robots.flegx_study import STUDY_T_AFTER, ranking, run_table_i
+    from proleg.papers.flegx_jump import MotionLaw
+    from proleg.papers.flegx_study import STUDY_T_AFTER, ranking, run_table_i
 
     t0 = time.perf_counter()
     rows = []

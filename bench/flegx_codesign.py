@@ -1,6 +1,6 @@
 """FLEGX Table I by co-design (issue 30): per configuration, the jump law found by an
 optimiser within the paper's stress limit (520 MPa) and the worm wheel's rating (77 N m),
-beside the paper's Table I (proleg.robots.flegx_codesign).
+beside the paper's Table I (proleg.papers.flegx_codesign).
 
     python bench/flegx_codesign.py                      # reduced: push duration only, case 2, PRBM
     python bench/flegx_codesign.py --full --trials 32   # push duration and extended pose, CMA-ES
@@ -16,7 +16,7 @@ import time
 
 import pandas as pd
 
-from proleg.robots import flegx_codesign as FC
+from proleg.papers import flegx_codesign as FC
 
 HERE = pathlib.Path(__file__).parent
 COLS = ["configuration", "link_case", "jump_mm", "paper_jump_mm", "stress_takeoff_MPa", "paper_stress_MPa", "peak_hip_Nm",

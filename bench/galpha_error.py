@@ -4,7 +4,7 @@
 (solvers/galpha.py, "Velocity error"): energy error of the undamped double pendulum and
 8-link chain (bench/common.py ``build_chain``, 10 s, coordinates "auto" = planar, an index-3
 DAE) against rtol (atol = rtol/10), with the slope in decades of error per decade of rtol; and
-the HyQ leg drop (``proleg.robots.hyq_tests.drop_test`` settings: rigid joints, 5 cm, rtol
+the HyQ leg drop (``proleg.papers.hyq_tests.drop_test`` settings: rigid joints, 5 cm, rtol
 1e-6, dt_max 1 ms) for its step count and peak foot force.
 
     python bench/galpha_error.py                       # everything (~10 min on the 2-core VM)
@@ -53,7 +53,7 @@ def chain_rows(n, rtols, name):
 
 def hyq_rows(t_end):
     import proleg as pl
-    from proleg.robots import hyq_tests as T
+    from proleg.papers import hyq_tests as T
 
     system = pl.assemble(pl.robots.hyq_leg(joints="rigid", gain="high", drop_height=0.05, actuators="drop"))
     rows = []

@@ -81,7 +81,7 @@ def torso_record(seed=0):
     """The record and FE guesses of run_torso_modal on main e754ddf (its identification inputs)."""
     from proleg.identify.hammer import synthetic_hammer_test
     from proleg.robots.torso import table2_modes, torso_modal
-    from proleg.robots.torso_report import HAMMER, _channel_dofs
+    from proleg.papers.torso_report import HAMMER, _channel_dofs
 
     f_max = 200.0
     fe = torso_modal(n_modes=40, **TORSO_NOMINAL_E754DDF)

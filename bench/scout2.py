@@ -26,7 +26,7 @@ def main():
     ap.add_argument("--models", default="I,II")
     add_output_args(ap, "scout2")
     args = ap.parse_args()
-    from proleg.robots.scout2_bound import scout2_bound
+    from proleg.papers.scout2_bound import scout2_bound
 
     rows = []
     for model in args.models.split(","):

@@ -51,7 +51,7 @@ def main():
                     help="variants per compiled vmap call inside a batch (Study.run lanes=; default: the whole batch)")
     args = ap.parse_args()
     if args.model == "hyq":
-        from proleg.robots.hyq_study import bushing_study
+        from proleg.papers.hyq_study import bushing_study
 
         study = bushing_study()
     else:

@@ -3,7 +3,7 @@ the neck width, the gauge section) with the others at their defaults, and which 
 
     PYTHONPATH=src python bench/torque_sensor_design_space.py [--name neck_width] [--values 4,5,6,7] [--mesh 6]
 
-Each point is the optimisation's evaluation (:func:`proleg.robots.sensor_study.evaluate_design`:
+Each point is the optimisation's evaluation (:func:`proleg.papers.sensor_study.evaluate_design`:
 case A, no stress stiffening, sharp corners, ``--mesh`` mm). Columns c_* are the constraint values (feasible when
 <= 0): c_strain = gauge strain / 0.06 % - 1, c_yield = 2 / safety factor - 1, c_stiffness =
 1 - stiffness / 140 N m/deg, c_reach = 1 if a gauge face has < 6 mm free in front. Writes
@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from proleg.robots.sensor_study import CONSTRAINTS, SPACE, evaluate_design
+from proleg.papers.sensor_study import CONSTRAINTS, SPACE, evaluate_design
 from proleg.robots.torque_sensor import DEFAULTS
 
 if __name__ == "__main__":

@@ -63,7 +63,7 @@ def chain7():
 def hyq():
     from proleg import assemble
     from proleg.robots.hyq_leg import hyq_leg
-    from proleg.robots.hyq_tests import drop_test
+    from proleg.papers.hyq_tests import drop_test
 
     system = assemble(hyq_leg(joints="rigid", actuators="drop"))
     return lambda: drop_test(system=system)
@@ -72,7 +72,7 @@ def hyq():
 def hyq_b8():
     from proleg import assemble
     from proleg.robots.hyq_leg import hyq_leg
-    from proleg.robots.hyq_tests import drop_test
+    from proleg.papers.hyq_tests import drop_test
 
     system = assemble(hyq_leg(joints="bushings8", actuators="drop"))
     return lambda: drop_test(system=system)

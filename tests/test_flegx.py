@@ -17,9 +17,10 @@ import proleg as pl
 from proleg.drives import WormGear
 from proleg.flex import cantilever_first_omega, elastica_tip
 from proleg.fem import material
-from proleg.robots import flegx, flegx_data as D, flegx_jump
+from proleg.robots import flegx, flegx_data as D
+from proleg.papers import flegx_jump
 from proleg.robots.flegx import add_link, strip_reduced
-from proleg.robots.flegx_jump import MotionLaw, jump_flight, worm_torques
+from proleg.papers.flegx_jump import MotionLaw, jump_flight, worm_torques
 from proleg.units import deg
 
 MAT = material("aisi304")
@@ -193,7 +194,7 @@ def test_worm_mesh_efficiency_is_eq16_while_sliding(rigid_jump):
     """Where the worm slides fast (|v_s| > v_dynamic, μ = 0.13) and the motor drives (P_in, P_out
     > 0), the dynamic mesh's instantaneous efficiency P_out / P_in is Eq. 16's η(0.13) = 0.606:
     median within 2 % (the spread: mesh spring/damper power and the rotor's inertia)."""
-    from proleg.robots.flegx_jump import worm_drive_outputs
+    from proleg.papers.flegx_jump import worm_drive_outputs
 
     wg = WormGear(**D.WORM)
     eta = []
@@ -337,7 +338,7 @@ def test_study_variants_are_the_group_system_with_other_parameters():
     from types import SimpleNamespace
 
     from proleg.assembly.system import constraints, generalized_forces, mass_action
-    from proleg.robots.flegx_study import _Variants
+    from proleg.papers.flegx_study import _Variants
 
     var = _Variants(dict(name="prbm-direct", link_model="prbm", configurations=(1, 3), cases=(1, 6)), MotionLaw())
     rng = np.random.default_rng(1)

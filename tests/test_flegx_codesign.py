@@ -1,4 +1,4 @@
-"""FLEGX jump law as design variables (issue 30, proleg.robots.flegx_codesign).
+"""FLEGX jump law as design variables (issue 30, proleg.papers.flegx_codesign).
 
 - The design law (``MotionLaw(design=True)``: push duration and extended pose read from the
   System) imposes the same joint motions as the hand law it starts from, and, after
@@ -19,9 +19,9 @@ import pytest
 
 import proleg as pl
 from proleg.assembly.system import constraints
-from proleg.robots import flegx_codesign as FC
+from proleg.papers import flegx_codesign as FC
 from proleg.robots.flegx import flegx
-from proleg.robots.flegx_jump import MotionLaw, _add_motions
+from proleg.papers.flegx_jump import MotionLaw, _add_motions
 from proleg.units import deg
 
 

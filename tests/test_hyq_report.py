@@ -1,4 +1,4 @@
-"""HyQ drop report (proleg.robots.hyq_report): every figure and table is built.
+"""HyQ drop report (proleg.papers.hyq_report): every figure and table is built.
 
 The default test feeds synthetic channel tables (no simulation) through the report writer; the
 slow test runs the whole scenario (three models + bench variant) as ``proleg run hyq-drop`` does.
@@ -12,8 +12,8 @@ import pandas as pd
 import pytest
 
 from proleg.robots import hyq_leg
-from proleg.robots import hyq_report as R
-from proleg.robots import hyq_tests as T
+from proleg.papers import hyq_report as R
+from proleg.papers import hyq_tests as T
 
 FIGURES = [
     "Slider vertical displacement",

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from proleg.robots.hyq_leg import cylinder_forces
-from proleg.robots.hyq_study import SWEEP_T_END, bushing_study
-from proleg.robots.hyq_tests import drop_test, variant_system
+from proleg.papers.hyq_study import SWEEP_T_END, bushing_study
+from proleg.papers.hyq_tests import drop_test, variant_system
 
 
 @pytest.mark.slow

@@ -1,4 +1,4 @@
-"""HyQ virtual bench tests (proleg.robots.hyq_tests): static, drop, quasi-static, bench data.
+"""HyQ virtual bench tests (proleg.papers.hyq_tests): static, drop, quasi-static, bench data.
 
 Physics checks: static vertical equilibrium (GRF = total weight), cylinder force × lever arm =
 joint torque (virtual work), free fall before touchdown, energy balance of the drop, rigid
@@ -11,7 +11,7 @@ import pytest
 
 import proleg as pl
 from proleg.robots import hyq_data as D
-from proleg.robots import hyq_tests as T
+from proleg.papers import hyq_tests as T
 from proleg.units import deg
 
 

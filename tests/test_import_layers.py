@@ -1,5 +1,5 @@
 """The layers import downward only (model → assembly → solvers → analyses → robots/identify/
-study → cli): no import cycle between proleg's modules, counting imports inside functions too
+study → papers → cli): no import cycle between proleg's modules, counting imports inside functions too
 (a function-level import that goes back up a layer is a cycle waiting for the next refactor).
 
 Two checks: the import graph read from the sources (every ``import``/``from ... import`` of a
@@ -82,10 +82,19 @@ def test_no_import_cycles():
     assert "proleg.assembly.system" in graph and "proleg.analyses.simulate" in graph
     # the three cycles of issue 20, by name
     for a, b in [("proleg.analyses.simulate", "proleg.control.servo"), ("proleg.assembly.coordinates", "proleg.assembly.system"),
-                 ("proleg.assembly.system", "proleg.assembly.extensions"), ("proleg.robots.hyq_report", "proleg.robots.hyq_tests")]:
+                 ("proleg.assembly.system", "proleg.assembly.extensions"), ("proleg.papers.hyq_report", "proleg.papers.hyq_tests")]:
         assert not (b in graph[a] and a in graph[b]), f"{a} and {b} import each other"
     cyc = find_cycle(graph)
     assert cyc is None, "import cycle: " + " → ".join(cyc)
+
+
+def test_the_library_does_not_import_the_papers():
+    """proleg.papers (the reproductions) builds on the library; no library module imports it back
+    (the CLI reaches it only through the module names in its scenario table)."""
+    graph = import_graph()
+    assert "proleg.papers.hyq_report" in graph and "proleg.robots.hyq_leg" in graph["proleg.papers.hyq_tests"]
+    users = sorted(m for m, deps in graph.items() if not m.startswith("proleg.papers") and any(d.startswith("proleg.papers") for d in deps))
+    assert not users, f"library modules importing proleg.papers: {users}"
 
 
 def test_the_cycle_finder_finds_a_cycle():
@@ -96,9 +105,21 @@ def test_the_cycle_finder_finds_a_cycle():
 def test_every_module_imports_in_a_fresh_interpreter_top_layer_first():
     """Top layers first (cli, robots, ... model last): a module whose import needs a module that
     is still being initialised above it fails here."""
-    order = ["cli", "study", "identify", "robots", "report", "io", "analyses", "control", "flex", "fem", "drives", "solvers", "assembly", "spatial", "model"]
+    order = ["cli", "papers", "study", "identify", "robots", "report", "io", "analyses", "control", "flex", "fem", "drives", "solvers", "assembly", "spatial", "model"]
     mods = sorted(import_graph(), key=lambda m: (next((k for k, p in enumerate(order) if m.split(".")[1:2] == [p]), len(order)), m))
     code = "import importlib, sys\nfor m in sys.argv[1:]:\n    importlib.import_module(m)\nprint('ok', len(sys.argv) - 1)"
     p = subprocess.run([sys.executable, "-c", code, *mods], capture_output=True, text=True, timeout=600)
     assert p.returncode == 0, p.stderr[-2000:]
     assert p.stdout.strip() == f"ok {len(mods)}"
+
+
+def test_every_scenario_of_the_cli_table_resolves():
+    """The CLI's scenario table names a module and a function for each ``proleg run NAME``: each
+    one imports and is callable (the table is the one link from the library to proleg.papers)."""
+    import importlib
+
+    from proleg.cli.main import SCENARIOS
+
+    assert {"hyq-drop", "scout2-bound", "flegx-jump", "torso-modal"} <= set(SCENARIOS)
+    for name, (module, function, _) in SCENARIOS.items():
+        assert callable(getattr(importlib.import_module(module), function)), name

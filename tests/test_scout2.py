@@ -13,7 +13,7 @@ import proleg as pl
 from proleg.drives.dcmotor import DCMotorDrive, delivered_torque, torque_speed_line
 from proleg.errors import ModelError
 from proleg.robots.scout2 import scout2, virtual_drive, Scout2Params
-from proleg.robots.scout2_bound import detect_period, energy_balance, scout2_bound
+from proleg.papers.scout2_bound import detect_period, energy_balance, scout2_bound
 from proleg.units import deg
 
 

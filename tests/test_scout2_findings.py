@@ -11,7 +11,7 @@ import re
 import numpy as np
 
 from proleg.robots import scout2_data as D
-from proleg.robots.scout2_report import LOW_SPEED_TARGET, findings
+from proleg.papers.scout2_report import LOW_SPEED_TARGET, findings
 
 NUM = re.compile(r"[-+]?\d+(?:\.\d+)?")
 

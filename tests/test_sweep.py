@@ -203,7 +203,7 @@ def test_concurrent_batches_leave_one_core_free(monkeypatch):
 
 
 _HANG = """
-from proleg.robots.hyq_study import bushing_study
+from proleg.papers.hyq_study import bushing_study
 tab = bushing_study(t_end=0.02).run(design={"pin_stiffness": [1e6, 1e7, 1e9, 1e10]}, workers=2, batch_size=2, progress=False)
 assert (tab["status"] == "success").all(), tab
 print("ok")

@@ -93,7 +93,7 @@ def test_bad_analysis_options_name_the_parameter(kw, match):
 
 
 def test_bad_optimisation_options():
-    from proleg.robots.sensor_study import optimize_sensor
+    from proleg.papers.sensor_study import optimize_sensor
 
     with pytest.raises(ModelError, match="n_trials"):
         optimize_sensor(n_trials=0)
@@ -106,7 +106,7 @@ def test_optimisation_is_resumable(tmp_path):
     """Two calls on one store: the second continues the first's study (each trial an FE solve) and
     re-solves nothing that the Parquet store already holds."""
     from proleg.study import Store
-    from proleg.robots.sensor_study import optimize_sensor
+    from proleg.papers.sensor_study import optimize_sensor
 
     store = tmp_path / "opt"
     first = optimize_sensor(store, n_trials=1, workers=1, search_mesh=0.006)

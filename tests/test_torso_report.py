@@ -20,7 +20,7 @@ def test_report_prose_follows_the_run(tmp_path):
     import pandas as pd
 
     from proleg.identify.uff import read_modes_uff, read_uff
-    from proleg.robots.torso_report import run_torso_modal
+    from proleg.papers.torso_report import run_torso_modal
 
     a = run_torso_modal(tmp_path / "a", n_hits=2, f_max=150.0)
     b = run_torso_modal(tmp_path / "b", n_hits=2, f_max=150.0, tube_wall=0.0035)

@@ -49,14 +49,13 @@ def _jaxlib_has_option(name: str) -> bool:
 XLA_CPU_DEFAULTS = {
     # The concurrency-optimized scheduler lets independent kernels run on the thread pool; a
     # simulation step is a few hundred microsecond-sized kernels, and the thread hand-offs cost
-    # more than they save: on a 2-core VM, 7-link chain 122 → 85 µs/step, 7-link bushing chain
-    # 329 → 189, with half the CPU time (bench/README.md).
+    # more than they save: off, a step takes about two thirds of the time with half the CPU time
+    # (docs/performance.md, "What made the difference").
     "xla_cpu_enable_concurrency_optimized_scheduler": "false",
     # YNNPACK fusions run the element code's small batched products (one batch entry per
-    # colour of the Newton matrix's JVPs, or per vmap lane) entry by entry: on the 7-link
-    # bushing chain (21 colours) they were ~100 µs of a ~200 µs step; without them, A/B in one
-    # process, 196 → 143 µs/step fastest (208 → 161 median), the planar 7-link chain 59 → 54,
-    # the 2-link model unchanged; a 1,000-lane vmap batch 50 → 16 µs per lane-step.
+    # colour of the Newton matrix's JVPs, or per vmap lane) entry by entry: on a model with many
+    # colours they were half of a step, and a third of a vmap batch's lane-step; without them no
+    # model measured got slower (docs/performance.md).
     "xla_cpu_experimental_ynn_fusion_type": "",
 }
 
@@ -162,11 +161,11 @@ from .model.flexible import FlexibleBody as FlexibleBody
 
 
 def __getattr__(name):
-    """``proleg.robots``, ``proleg.study``, ``proleg.io`` and ``proleg.report`` load on first use:
-    they import pandas, pydantic, matplotlib and the robots' data, which a model of one's own does
-    not need (``import proleg`` stays short); ``proleg.io.load_urdf(...)`` works without an
-    ``import proleg.io`` first."""
-    if name in ("robots", "study", "io", "report"):
+    """``proleg.robots``, ``proleg.papers``, ``proleg.study``, ``proleg.io`` and ``proleg.report``
+    load on first use: they import pandas, pydantic, matplotlib and the robots' data, which a
+    model of one's own does not need (``import proleg`` stays short); ``proleg.io.load_urdf(...)``
+    works without an ``import proleg.io`` first."""
+    if name in ("robots", "papers", "study", "io", "report"):
         import importlib
 
         return importlib.import_module(f".{name}", __name__)

@@ -4,8 +4,8 @@ jaxlib takes its LAPACK function table from SciPy: the first LU, Cholesky or tri
 that JAX lowers for the CPU (and every lowering of a stored, exported function) imports
 ``scipy.linalg.cython_blas`` and ``scipy.linalg.cython_lapack`` by name and reads their
 ``__pyx_capi__``. Importing them the usual way runs ``scipy/linalg/__init__.py``, which imports
-all of SciPy's linear algebra: 0.2–0.35 s of a warm start of ~1.2 s (issue 20, README example,
-2-core VM, SciPy 1.17). The two extension modules themselves load in ~9 ms.
+all of SciPy's linear algebra, a sizeable part of a warm start (docs/performance.md, "Time from
+import to the table"); the two extension modules themselves load in milliseconds.
 
 :func:`preload` loads the two extension modules from their files under their full names, so
 that jaxlib finds them in ``sys.modules``; ``scipy.linalg`` itself is imported when something

@@ -65,12 +65,11 @@ store, :func:`proleg.cache_store.install_jax_cache`). It promises, for every ent
 XLA options by kind of function (:data:`XLA_OPTIONS`, :func:`xla_options`). Most of a cold
 start is XLA's CPU backend compiling many small kernels, and two of its defaults cost far more
 compile time than they give back on proleg's small dense matrices (the README's double
-pendulum, HyQ leg drop and 7-link chain, bench/compile_cache.py --table and README):
+pendulum, HyQ leg drop and 7-link chain, bench/compile_cache.py --table; docs/performance.md):
 
 - ``"loop"`` (the integration loops, run thousands of steps): XLA's MLIR fusion emitters off
-  (``xla_cpu_use_fusion_emitters``), the classic LLVM IR emitters instead: the HyQ leg drop's
-  compile 20–22 s → 15 s with the same time per step (656–660 vs 608–683 µs, load ~1); the
-  7-link chain 98 → 104 µs/step.
+  (``xla_cpu_use_fusion_emitters``), the classic LLVM IR emitters instead: about a quarter less
+  compile time for the same time per step, within the run-to-run spread.
 - ``"once"`` (initial conditions, post-processing, Jacobians: a few calls per run): also LLVM's
   optimisation level 0: these compile 3–5× faster and run 2–3× slower, microseconds per call.
 
@@ -80,7 +79,7 @@ Trails (:func:`trail`): an analysis (``simulate``) names what determines the exe
 will load; the first run records them in ``trail/<key>.entry``, and a later process
 starts loading the last one it will need (the step loop, the largest) in a background thread
 while the analysis computes its initial conditions. XLA deserialises executables without
-Python's lock, so on two cores the README example's warm start overlaps 0.05–0.1 s.
+Python's lock, so the loading overlaps the initial conditions even on two cores.
 """
 
 from __future__ import annotations

@@ -54,7 +54,7 @@ def find_redundant_rows(Phi_q: np.ndarray, nbody: int, scale: np.ndarray | None 
     the complement of the normalization rows. Where the singular values already prove every
     joint row independent (the usual case) the QR is skipped: for any QR, |r_kk| ≥ σ_min and
     |r_11| ≤ σ_max, so σ_min > tol·σ_max keeps all rows. That spares a start importing
-    ``scipy.linalg`` (0.2 s of the README example's 1.2 s warm start, issue 20).
+    ``scipy.linalg``, a sizeable part of a warm start (docs/performance.md, "Time from import to the table").
     """
     nj = Phi_q.shape[0] - nbody
     if nj == 0:

@@ -417,21 +417,14 @@ def auto_coordinates(system: System) -> tuple[str, str]:
     """What ``coordinates="auto"`` runs, decided from the topology alone: ("planar", why) where the
     joints confine every part to one plane, else ("absolute", why). Never "joint".
 
-    The rule is measured (bench/coordinates.py, results/coordinates.md; generalized-α, rtol 1e-6,
-    cold compiles, 2-core VM at load average 4–11, so compare CPU µs/step): joint coordinates
-    cost about the same per step as planar ones on loop-free chains but take more steps and
-    compile 2–3× longer —
-    8-link chain 2 s: joint 1,543 steps × 108 µs vs planar 1,102 × 91 µs, compile 57 vs 22 s;
-    3-link chain: 1,326 × 48 vs 1,063 × 49 µs, compile 46 vs 20 s; pendulum: 14 vs 22 µs but
-    compile 30 vs 17 s; HyQ leg (4 cut joints, 18 loop rows): 855 vs 429 µs/step, compile 152
-    vs 29 s; Scout II (1 cut joint): 627 vs 375 µs/step; heavy top and a floating-base chain
-    (cut joint, normalization rows): 51 vs 23 and 103 vs 73 µs/step against absolute; FLEGX's
-    tendon-rod loops leave joint coordinates with free degrees of freedom (ModelError). No
-    model is faster in joint coordinates including compile, so "auto" does not pick them;
-    force ``coordinates="joint"`` for long runs of small loop-free trees, or use the Diffrax
-    integrators (pl.Tsit5: joint coordinates at 74 µs per 5th-order step on the 8-link chain).
-    (The joint rows ran first and also compiled the initial-condition solve: their compile
-    figures are upper bounds, by ~10 s.)"""
+    The rule is measured (bench/coordinates.py; the table is in docs/performance.md,
+    "Coordinates"): joint coordinates cost about the same per step as planar ones on loop-free
+    chains but take more steps and compile 2–3× longer; with cut joints (closed loops) they
+    cost about twice as much per step as planar or absolute coordinates; FLEGX's tendon-rod
+    loops leave joint coordinates with free degrees of freedom (ModelError). No model is faster
+    in joint coordinates including compile, so "auto" does not pick them; force
+    ``coordinates="joint"`` for long runs of small loop-free trees, or use the Diffrax
+    integrators (pl.Tsit5), which run in joint coordinates."""
     basis, why = getattr(system.topo, "planar", (None, "not checked"))
     if basis is None:
         return "absolute", f"not planar ({why})"

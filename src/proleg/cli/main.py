@@ -17,18 +17,18 @@ app = typer.Typer(add_completion=False, no_args_is_help=True, help="proleg: virt
 
 # name -> (module, function, description); scenarios write into results/<name>/ by default
 SCENARIOS = {
-    "hyq-drop": ("proleg.robots.hyq_report", "run_drop", "HyQ leg drop test: rigid vs 4 vs 8 bushings, HTML report (main job)"),
+    "hyq-drop": ("proleg.papers.hyq_report", "run_drop", "HyQ leg drop test: rigid vs 4 vs 8 bushings, HTML report (main job)"),
     "hyq-stand": ("proleg.robots.hyq", "run_stand", "Whole HyQ (URDF) dropped 10 cm onto four feet: GRF vs weight share, torques vs statics, 3D animation"),
-    "hyq-trot": ("proleg.robots.hyq_trot_report", "run_trot", "Whole HyQ trots at 1 m/s on hydraulic cylinders (pressures, flows, energy) beside ideal torque sources"),
-    "hyq-static": ("proleg.robots.hyq_report", "run_static", "HyQ leg static test, payload 0/3/7 kg"),
-    "hyq-quasistatic": ("proleg.robots.hyq_report", "run_quasistatic", "HyQ leg quasi-static cycles: force-stroke loops"),
-    "scout2-bound": ("proleg.robots.scout2_report", "run_bound", "Scout II bounding: Model I vs Model II, low speed, gait metrics, HTML report"),
-    "hyq-bushing-study": ("proleg.robots.hyq_study", "run_bushing_study", "HyQ 8-bushing drop vs pin stiffness 1e6-1e10 N/m: proleg.study store + HTML report"),
-    "flegx-jump": ("proleg.robots.flegx_report", "run_jump", "FLEGX countermovement jump: rigid vs PRBM vs CB link (seed 002 Fig. 3)"),
-    "flegx-machinery": ("proleg.robots.flegx_report", "run_machinery", "FLEGX worm-gear jump with landing vs ideal gears (seed 002 Fig. 4)"),
-    "flegx-study": ("proleg.robots.flegx_report", "run_study", "FLEGX configurations 1-4 x link cases 1-6, Table I"),
-    "torso-modal": ("proleg.robots.torso_report", "run_torso_modal", "HyQ torso FE modes vs a synthetic hammer test (seed 001 Table 2)"),
-    "torque-sensor-study": ("proleg.robots.sensor_study", "run_torque_sensor_study", "HyQ torque sensor: four FE concepts + optuna optimisation"),
+    "hyq-trot": ("proleg.papers.hyq_trot_report", "run_trot", "Whole HyQ trots at 1 m/s on hydraulic cylinders (pressures, flows, energy) beside ideal torque sources"),
+    "hyq-static": ("proleg.papers.hyq_report", "run_static", "HyQ leg static test, payload 0/3/7 kg"),
+    "hyq-quasistatic": ("proleg.papers.hyq_report", "run_quasistatic", "HyQ leg quasi-static cycles: force-stroke loops"),
+    "scout2-bound": ("proleg.papers.scout2_report", "run_bound", "Scout II bounding: Model I vs Model II, low speed, gait metrics, HTML report"),
+    "hyq-bushing-study": ("proleg.papers.hyq_study", "run_bushing_study", "HyQ 8-bushing drop vs pin stiffness 1e6-1e10 N/m: proleg.study store + HTML report"),
+    "flegx-jump": ("proleg.papers.flegx_report", "run_jump", "FLEGX countermovement jump: rigid vs PRBM vs CB link (seed 002 Fig. 3)"),
+    "flegx-machinery": ("proleg.papers.flegx_report", "run_machinery", "FLEGX worm-gear jump with landing vs ideal gears (seed 002 Fig. 4)"),
+    "flegx-study": ("proleg.papers.flegx_report", "run_study", "FLEGX configurations 1-4 x link cases 1-6, Table I"),
+    "torso-modal": ("proleg.papers.torso_report", "run_torso_modal", "HyQ torso FE modes vs a synthetic hammer test (seed 001 Table 2)"),
+    "torque-sensor-study": ("proleg.papers.sensor_study", "run_torque_sensor_study", "HyQ torque sensor: four FE concepts + optuna optimisation"),
 }
 
 

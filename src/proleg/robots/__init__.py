@@ -1,14 +1,17 @@
-"""proleg.robots: the built-in models of the source papers.
+"""proleg.robots: the built-in models of the source papers (builders and their data).
+
+The papers' reproductions (virtual bench tests, scenario runners, reports, design studies) live
+in :mod:`proleg.papers`, which imports these builders; nothing here imports it.
 
 - :func:`hyq_leg`: the HyQ hydraulic leg on the HAL test bench (seeds 000 and 001), rigid or
-  with 4 or 8 pin bushings; virtual bench tests in :mod:`proleg.robots.hyq_tests`.
+  with 4 or 8 pin bushings; virtual bench tests in :mod:`proleg.papers.hyq_tests`.
 
-- :func:`scout2`, :func:`scout2_bound`: the Scout II bounding quadruped (seed 003), Model I and
-  Model II, its bounding runs and gait metrics; scenario ``proleg run scout2-bound``.
+- :func:`scout2`: the Scout II bounding quadruped (seed 003), Model I and Model II; its bounding
+  runs and gait metrics are :func:`proleg.papers.scout2_bound`.
 - :func:`flegx`: the FLEGX flexible jumping leg (seed 002), rigid / PRBM / Craig-Bampton
-  lower leg; :func:`flegx_jump` its countermovement jump with metrics.
+  lower leg; its countermovement jump with metrics is :func:`proleg.papers.flegx_jump`.
 - :func:`hyq`: the whole HyQ quadruped from its URDF (example-robot-data), PD servos and foot
-  contacts (:mod:`proleg.robots.hyq`; its stand scenario is not registered yet: see run_stand).
+  contacts (:mod:`proleg.robots.hyq`; its stand scenario, ``proleg run hyq-stand``, is run_stand there).
 - :func:`hyq_trot`: the whole HyQ trotting on hydraulic cylinders with chamber pressures or on
   ideal torque sources (:mod:`proleg.robots.hyq_trot`); scenario ``proleg run hyq-trot``.
 """
@@ -17,9 +20,7 @@ from .hyq_leg import hyq_leg as hyq_leg
 from .hyq import hyq as hyq
 from .hyq_trot import hyq_trot as hyq_trot
 from .flegx import flegx as flegx
-from .flegx_jump import flegx_jump as flegx_jump
 from .scout2 import scout2 as scout2
-from .scout2_bound import scout2_bound as scout2_bound
 from .sensor_fe import mesh_convergence as torque_sensor_convergence
 from .sensor_fe import torque_sensor_analysis as torque_sensor_analysis
 from .torso import torso_modal as torso_modal

@@ -31,7 +31,7 @@ Bodies (seed 002 §II, Fig. 1; sagittal plane x-z, pins along +y; angles in ``fl
     ``cb_damping``), with stress recovery at the clamped end: σ_xx = E (ε − z κ) at the two
     surfaces z = ±t/2 of the root section (von Mises = |σ_xx|; transverse shear is zero at the
     surfaces). A beam, not the scikit-fem P2-tet solid: the modal body needs 6-DOF interface
-    nodes, which the tet mesh lacks (see the report of issue 16).
+    nodes, which the tet mesh lacks.
 
 - ``gears="worm"``: each drive is a worm set in the dynamics (:func:`add_worm_drive`): the worm's
   rotation is a slider ``<drive>_worm`` on a :class:`~proleg.Prismatic` to the housing (the
@@ -47,7 +47,7 @@ Bodies (seed 002 §II, Fig. 1; sagittal plane x-z, pins along +y; angles in ``fl
   against the ground z = 0, frictionless by default (the guide carries the horizontal loads).
 
 The modelled (initial) pose is the standing pose (θ1, θ2) = ``stand`` with the foot's lowest
-point ``clearance`` above the ground. Joint motions (:func:`proleg.robots.flegx_jump`) are
+point ``clearance`` above the ground. Joint motions (:func:`proleg.papers.flegx_jump`) are
 imposed relative to this pose, on the wheels (ideal gears) or on the worms (worm gears).
 """
 

@@ -82,8 +82,8 @@ DEFAULTS = {
 # Default element sizes [m] (gauge regions at half, h_min a quarter; the disc concepts on a swept mesh
 # whose fillets get elements of fillet_size x their radius at every h, see sensor_fe). Mesh
 # convergence of the final concept at its defaults (bench/torque_sensor_convergence.py, case A,
-# stress stiffening, max von Mises = averaged vertex stress; measured 2026-11-25 at load ~10, so
-# the times are not comparable; bench/results/torque_sensor_convergence_final*.csv):
+# stress stiffening, max von Mises = averaged vertex stress; bench/results/torque_sensor_convergence_final*.csv,
+# rendered in docs/performance.md):
 # (a) global size h, fillets at 0.5 x radius on every mesh, relative to h = 3 mm (162 195 DOFs):
 #   h [mm]   DOFs     gauge strain         stiffness              max von Mises
 #   6         80 532  0.04308 % (+0.48 %)  2292 N m/deg (-2.6 %)  65.9 MPa (-1.6 %)

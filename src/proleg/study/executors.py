@@ -39,13 +39,11 @@ def default_executor(kind: str, backend: str | None = None) -> str:
     - on the CPU: "vmap" for a System, "processes" for a builder (whose builds and traces,
       plain Python, then run on every core).
 
-    Measured (``bench/study_throughput.py --model hyq --n 1000``: the HyQ 8-bushing drop over
-    1e6–1e10 N/m, 1,000 LHS variants, 2-core VM, warm compilation cache, load 2–7 from other
-    jobs, 25 Nov 2026): a loop of ``simulate`` 1.04 variants/s, "vmap" 0.39, "processes" 0.52,
-    "dask" 0.66 (2 workers each), "processes" with ``lanes=1`` 1.57 (200 variants). A vmap
-    batch runs until its slowest lane, and these variants differ 3× in steps; variants that
-    step alike run 5× faster batched than in a loop (1,000 pendulum variants: 99.7 against
-    19.7 variants/s, bench/vmap_batch.py). A study cannot know beforehand which it is, so the
+    Measured (``bench/study_throughput.py --model hyq``, the HyQ 8-bushing drop over 1e6–1e10
+    N/m, and bench/vmap_batch.py; figures in docs/performance.md): a vmap batch runs until its
+    slowest lane, and variants whose step counts differ 3× run slower batched on CPU cores than
+    one by one (``"processes"`` with ``lanes=1`` was the fastest there), while variants that
+    step alike run about 5× faster batched than in a loop. A study cannot know beforehand which it is, so the
     CPU default of a System study stays "vmap"; for stiffness studies over decades on CPU
     cores pass ``executor="processes", lanes=1`` to :meth:`Study.run`."""
     import jax
@@ -91,8 +89,7 @@ def _shape_key(system, simulate_kw: dict) -> str:
     so a longer link does not change them), Python branches on static values. Names (parts,
     markers, elements, joints) are in the key because outputs look them up.
 
-    Cost: one trace of the simulation per build (about one ``assemble``; FLEGX 4 s, the
-    pendulum of the tests 3 s on the loaded 2-core VM), no compilation. A build whose trace
+    Cost: one trace of the simulation per build (about one ``assemble``: seconds), no compilation. A build whose trace
     fails gets a key of its own (its sweep then reports the error in its row)."""
     import jax
 

@@ -39,8 +39,8 @@ from ..assembly.system import constraints, generalized_forces, kinematics
 from ..errors import ModelError
 from ..model.control import Motion
 from ..units import deg
-from . import hyq_data as D
-from .hyq_leg import cylinder_forces, hyq_leg, joint_angles
+from ..robots import hyq_data as D
+from ..robots.hyq_leg import cylinder_forces, hyq_leg, joint_angles
 from ..compile_cache import jit
 
 __all__ = [
@@ -414,7 +414,7 @@ def drop_test(
     system = assemble(model) if system is None else system
     # dt_max given explicitly: the same solver options for any t_end, so runs of one System of
     # different lengths share the compiled integrator. At most the 1 ms the bench records at
-    # (the step resolves the contact there); finer outputs come from the dense output (issue 20)
+    # (the step resolves the contact there); finer outputs come from the dense output
     res = simulate(system, t_end=t_end, dt_output=dt_output, integrator=GeneralizedAlpha(dt_max=max(min(dt_output, 1e-2), 1e-3), rtol=rtol, atol=atol), progress=progress)
     df = channels(res, light=light)
     tables = {"channels": df} if light else {"channels": df, "summary": pd.DataFrame([drop_summary(df)])}
@@ -487,7 +487,7 @@ def variant_system(system, *, bushing_stiffness=None, bushing_damping=None, actu
     bushing), ``actuator_coefficients`` (hip_k, hip_c, knee_k, knee_c) and ``foot_stiffness``;
     other keywords (``joints``, ``gain``, ...) must match the system and are ignored.
     """
-    from .hyq_leg import bushing_vector
+    from ..robots.hyq_leg import bushing_vector
 
     upd = {}
     nb = system.params["bushing_stiffness"].shape[0] if "bushing_stiffness" in system.params else 0

@@ -6,7 +6,7 @@ from the rigid leg's forces as two more outputs.
 
 The stiffness is one scalar k [N/m] for every pin: each bushing's 6×6 stiffness and damping
 are the nominal ones scaled by k / k_nominal — the same variant as
-:func:`~proleg.robots.hyq_tests.variant_system` (damping proportional to stiffness,
+:func:`~proleg.papers.hyq_tests.variant_system` (damping proportional to stiffness,
 ``BUSHING_DAMPING_BETA``), written with jnp so that every variant runs in one vmap batch.
 """
 
@@ -67,7 +67,7 @@ def bushing_study(
     [N]`` at the study's output times, 1 ms from 0): adds the outputs ``rms_hip_vs_rigid`` and
     ``rms_knee_vs_rigid`` [N]. ``system``: the assembled 8-bushing leg, if already built."""
     from ..assembly.assemble import assemble
-    from .hyq_leg import hyq_leg
+    from ..robots.hyq_leg import hyq_leg
 
     if system is None:
         system = assemble(hyq_leg(joints="bushings8", gain=gain, drop_height=drop_height, actuators="drop"))

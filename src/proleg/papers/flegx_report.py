@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from . import flegx_data as D
+from ..robots import flegx_data as D
 
 COLORS = {"rigid": "#444444", "prbm": "#d62728", "cb": "#1f77b4", "ideal": "#2ca02c", "worm": "#9467bd"}
 LABELS = {"rigid": "rigid link", "prbm": "PRBM (Eqs. 8-11)", "cb": "Craig-Bampton (LFM)", "ideal": "ideal gears", "worm": "worm gears (η ≈ 0.60)"}
@@ -347,7 +347,7 @@ def run_study(out_dir="results/flegx-study", progress: bool = True, workers: int
     """Configurations No. 1-4 × link cases 1-6 (PRBM) + the CB link for case 2: Table I, as
     :class:`proleg.study.Study` groups (``flegx_study``), stored in ``out_dir/store`` (resumable).
     With ``codesign`` each configuration's push is also found by the reduced co-design of
-    :func:`proleg.robots.flegx_codesign.push_at_limits` (PRBM, case 2: the shortest push within
+    :func:`proleg.papers.flegx_codesign.push_at_limits` (PRBM, case 2: the shortest push within
     520 MPa and the 77 N m wheel rating), stored in ``out_dir/codesign``."""
     import resource
 

@@ -24,8 +24,8 @@ import numpy as np
 from ..assembly.assemble import assemble
 from ..assembly.system import System
 from ..units import deg
-from . import scout2_data as D
-from .scout2 import scout2
+from ..robots import scout2_data as D
+from ..robots.scout2 import scout2
 from .scout2_bound import scout2_bound
 
 __all__ = ["variant_system", "run_point", "point_row", "setpoint_for_speed", "calibrate_leg_friction", "range_rows", "RANGES", "PAPER_POINTS"]

@@ -126,7 +126,7 @@ def table2_from_pairing(fe, fe_rows, fe_shapes, ident, roles, min_mac: float = 0
     identified mode of highest MAC among those within a frequency ratio of 1.3; none (NaN: the
     test did not find that mode) when that MAC is below ``min_mac``."""
     from ..identify.correlation import mac
-    from .torso import TABLE2, TABLE2_QUANTITIES
+    from ..robots.torso import TABLE2, TABLE2_QUANTITIES
 
     M = mac(fe_shapes[:, fe_rows], ident.shapes) if ident.frequencies.size else np.zeros((len(fe_rows), 0))
     rows = []
@@ -152,7 +152,7 @@ def run_torso_modal(out_dir="results/torso-modal", *, n_hits: int = 5, f_max: fl
     from ..identify.hammer import comparison_table, modal, synthetic_hammer_test
     from ..identify.uff import write_frf_uff
     from ..report.html import Report
-    from .torso import PARAM_RANGES, TORSO_DEFAULTS, table2_modes, table2_study, torso_modal
+    from ..robots.torso import PARAM_RANGES, TORSO_DEFAULTS, table2_modes, table2_study, torso_modal
 
     t0 = time.perf_counter()
     out = Path(out_dir)

@@ -11,9 +11,9 @@ import numpy as np
 import pandas as pd
 
 from ..report import Report
-from . import hyq_data as D
+from ..robots import hyq_data as D
 from . import hyq_tests as T
-from .hyq_leg import BUSHING_PINS, PIN_NAMES
+from ..robots.hyq_leg import BUSHING_PINS, PIN_NAMES
 
 MODELS = ("rigid", "bushings4", "bushings8")
 LABELS = {"rigid": "RCM (rigid pins)", "bushings4": "FCM, 4 bushings (1, 2, 3, 6)", "bushings8": "FCM, 8 bushings (1-6)"}
@@ -217,7 +217,7 @@ def energy_table(frames: dict) -> pd.DataFrame:
 
 def hierarchy_row(df: pd.DataFrame, rigid: pd.DataFrame) -> dict:
     """Peak cylinder forces of one drop record and their RMS differences from the rigid model
-    over the same output times (the quantities :func:`proleg.robots.hyq_study.hierarchy_rows`
+    over the same output times (the quantities :func:`proleg.papers.hyq_study.hierarchy_rows`
     computes in the study)."""
     r = rigid.iloc[: len(df)]
     row = {}
@@ -310,7 +310,7 @@ def _drop_job(job: dict) -> dict:
 
 def _sweep_job(job: dict) -> dict:
     """The hierarchy sweep: the 8-bushing leg's drop for each pin stiffness of ``job["sweep"]``
-    over ``SWEEP_T_END``, through the study :func:`proleg.robots.hyq_study.hierarchy_rows` (one
+    over ``SWEEP_T_END``, through the study :func:`proleg.papers.hyq_study.hierarchy_rows` (one
     vmap batch) against the rigid leg's forces ``job["rigid"]``."""
     from .hyq_study import hierarchy_rows
 

@@ -4,7 +4,7 @@ the finding across the unknown parameters' ranges, the Table 6 readings, the Tab
 sensitivity, the Fig. 7 analogue, a self-contained HTML report and Parquet (seed 003, issue 31).
 
 Everything runs on two compiled systems (Model I, Model II): the variants change parameters
-only, so they reuse them (:func:`proleg.robots.scout2_study.variant_system`). The findings prose
+only, so they reuse them (:func:`proleg.papers.scout2_study.variant_system`). The findings prose
 is written by :func:`findings` from the run's numbers; the paper's values enter only as cited
 references (scout2_data).
 """
@@ -18,8 +18,8 @@ import numpy as np
 import pandas as pd
 
 from ..units import deg
-from . import scout2_data as D
-from .scout2 import LEGS
+from ..robots import scout2_data as D
+from ..robots.scout2 import LEGS
 from .scout2_bound import BoundRun, energy_balance, pitch_deg, scout2_bound
 from . import scout2_study as S
 from .scout2_study import variant_system

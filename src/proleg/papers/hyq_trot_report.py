@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .hyq import LEGS
-from .hyq_trot import RATING, hyq_trot
+from ..robots.hyq import LEGS
+from ..robots.hyq_trot import RATING, hyq_trot
 
 
 def run_trot(out_dir="results/hyq-trot", progress: bool = True, *, speed: float = 1.0, t_end: float | None = None) -> Path:

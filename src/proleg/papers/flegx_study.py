@@ -17,12 +17,12 @@ is done), rich progress.
 simulation, so the variants of a group would share one compile that way too (checked: every
 variant of a group has the same key, the planar rows being canonical). The table ``apply``
 stays because it is cheaper and simpler here: a builder study traces every variant's
-simulation to key it (~4 s each on the 2-core VM, ~100 s more for Table I), and an output
+simulation to key it (seconds per variant, minutes more for Table I), and an output
 function sees only the Result, whose System is the group base's, while
-:func:`~proleg.robots.flegx_jump.jump_metrics` needs each variant's own model
+:func:`~proleg.papers.flegx_jump.jump_metrics` needs each variant's own model
 (:meth:`_Variants.key_of` finds it from the body masses).
 
-Simulated window: the jump of :func:`~proleg.robots.flegx_jump.flegx_jump` (same motion law
+Simulated window: the jump of :func:`~proleg.papers.flegx_jump.flegx_jump` (same motion law
 for every variant) up to ``STUDY_T_AFTER`` after the end of the push: take-off and apex (Table
 I's "investigated movement was the take-off phase"); a variant whose apex falls on the last
 output is flagged (``apex_in_window`` false).
@@ -37,8 +37,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from . import flegx_data as D
-from .flegx import flegx
+from ..robots import flegx_data as D
+from ..robots.flegx import flegx
 from .flegx_jump import MotionLaw, _add_motions, jump_metrics
 
 __all__ = ["STUDY_T_AFTER", "study_groups", "group_study", "run_table_i", "ranking"]

@@ -12,10 +12,9 @@ with t_s = ``t_settle`` (standing still on the ground first), t_p = t_s + T_squa
 t_r = t_p + T_push + ``retract_delay``. Defaults: stand (−30°, 60°), squat (−50°, 100°),
 extend (−20°, 40°), land = stand; T_squat = 0.8 s (seed 002: "squats down in few seconds";
 shortened to keep runs short, the squat is quasi-static either way), T_push = 0.30 s. With the
-No. 4 leg and the 250×70×3 CB link this gives a 47.5 mm jump (the guide then rises 91 mm from
-take-off and the foot clears the ground by 18 mm), 432 MPa at take-off and 506 MPa at landing,
-35 mm tip displacement; PRBM link: 73.5 mm, 438 MPa; the rigid link does not take off
-(measured 2026-11-25, ``proleg run flegx-jump``). The paper: LFM 50 mm vs PRBM 60 mm (§III.A),
+No. 4 leg and the 250×70×3 link the CB and PRBM links jump tens of millimetres (the PRBM one
+higher) and the rigid link does not take off; the figures of ``proleg run flegx-jump`` are in
+docs/papers/seed-002.md. The paper: LFM 50 mm vs PRBM 60 mm (§III.A),
 Table I No. 4: 104 mm / 531 MPa; its machinery jump (Fig. 4): 50 mm, 447 MPa, 32 mm.
 The push is close to the leg's bounce period on the strip (≈ 0.2-0.3 s), so the flexible link
 stores and returns energy: shorter pushes jump much higher on the flexible link than on the
@@ -70,8 +69,8 @@ import numpy as np
 from ..errors import ModelError
 from ..model.control import Motion
 from ..units import deg
-from . import flegx_data as D
-from .flegx import check_angles, flegx
+from ..robots import flegx_data as D
+from ..robots.flegx import check_angles, flegx
 
 __all__ = ["MotionLaw", "flegx_jump", "JumpResult", "worm_torques", "worm_friction", "jump_metrics", "jump_flight", "worm_drive_outputs"]
 
@@ -94,7 +93,7 @@ class MotionLaw:
     #: True: the push duration and the extended pose are the model's design variables
     #: ``law_t_push`` [s], ``law_extend_hip`` and ``law_extend_knee`` [rad] (initial values
     #: ``t_push`` and ``extend``), which a study sweeps or optimises without recompiling
-    #: (:mod:`proleg.robots.flegx_codesign`); the flight retraction follows the push's end
+    #: (:mod:`proleg.papers.flegx_codesign`); the flight retraction follows the push's end
     design: bool = False
 
     @property

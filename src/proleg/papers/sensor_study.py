@@ -47,7 +47,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import ModelError
-from .sensor_fe import torque_sensor_analysis
+from ..robots.sensor_fe import torque_sensor_analysis
 
 SPACE = dict(link_width=(0.006, 0.009), neck_ratio=(0.5, 0.85), r_link=(0.011, 0.013), thickness=(0.008, 0.015))
 OUTPUTS = ("gauge_strain", "max_von_mises", "safety_factor", "stiffness", "twist", "calibration_ccw", "mass",
@@ -130,7 +130,7 @@ def optimize_sensor(store=None, n_trials: int = 16, *, workers: int = 2, max_gau
     search_mesh : [m]             element size of the search solves (gauge regions at half)
     """
     from ..study import Store, Study
-    from .torque_sensor import DEFAULTS
+    from ..robots.torque_sensor import DEFAULTS
 
     if not (isinstance(n_trials, int) and n_trials >= 1):
         raise ModelError(f"optimize_sensor n_trials = {n_trials!r} must be a positive integer.")
@@ -218,8 +218,8 @@ def run_torque_sensor_study(out_dir="results/torque-sensor-study", *, n_trials: 
                             convergence: bool = False) -> Path:
     """The four concepts side by side, then the optimised final design; HTML + Parquet/JSON."""
     from ..report.html import Report
-    from .sensor_fe import mesh_convergence
-    from .torque_sensor import DEFAULTS, ENVELOPE
+    from ..robots.sensor_fe import mesh_convergence
+    from ..robots.torque_sensor import DEFAULTS, ENVELOPE
 
     t0 = time.perf_counter()
     out = Path(out_dir)

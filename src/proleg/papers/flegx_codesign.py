@@ -2,11 +2,11 @@
 the jump law that maximises the jump height within the paper's stress limit and the worm
 wheel's rating, found by an optimiser, not picked by hand.
 
-The law is :class:`~proleg.robots.flegx_jump.MotionLaw` with ``design=True``: the push's
+The law is :class:`~proleg.papers.flegx_jump.MotionLaw` with ``design=True``: the push's
 duration ``law_t_push`` [s] and extended pose ``law_extend_hip``, ``law_extend_knee`` [rad] are
 design variables of the model (the squat and the stand stay those of flegx_jump's documented
 law), so every trial reruns the compiled simulation with other parameter values. The outputs
-come from :func:`~proleg.robots.flegx_jump.jump_metrics` (contact timing, apex search: not
+come from :func:`~proleg.papers.flegx_jump.jump_metrics` (contact timing, apex search: not
 smooth), so the optimiser samples: proleg's CMA-ES (``Study.optimize(sampler="cma")``) with
 the constraints as a feasibility-first penalty.
 
@@ -30,8 +30,8 @@ import numpy as np
 import pandas as pd
 
 from ..units import deg
-from . import flegx_data as D
-from .flegx import flegx
+from ..robots import flegx_data as D
+from ..robots.flegx import flegx
 from .flegx_jump import MotionLaw, _add_motions, jump_metrics
 
 __all__ = ["STRESS_LIMIT", "LAW_SPACE", "codesign_study", "optimise_law", "optimise_table_i"]
@@ -193,7 +193,7 @@ def ranking_text(df: pd.DataFrame) -> str:
     return "\n".join(lines)
 
 
-if __name__ == "__main__":  # pragma: no cover - a manual run: python -m proleg.robots.flegx_codesign
+if __name__ == "__main__":  # pragma: no cover - a manual run: python -m proleg.papers.flegx_codesign
     import sys
 
     n = int(sys.argv[1]) if len(sys.argv) > 1 else 24

@@ -39,7 +39,7 @@ from ..assembly.system import System
 from ..drives.dcmotor import specific_resistance
 from ..errors import ModelError
 from ..solvers.galpha import GeneralizedAlpha
-from .scout2 import LEGS, scout2
+from ..robots.scout2 import LEGS, scout2
 
 __all__ = ["BoundRun", "scout2_bound", "stride_table", "gait_metrics", "detect_period", "energy_balance", "pitch_deg"]
 

@@ -1,0 +1,106 @@
+"""Run a scenario and bring its report's tables into the docs (docs/papers/tables/NAME/).
+
+    PYTHONPATH=src python docs/papers/collect.py torso-modal flegx-jump     # run, then collect
+    PYTHONPATH=src python docs/papers/collect.py --no-run hyq-static       # collect results/NAME/
+
+A scenario runs for one to several minutes, too long for every docs build, so its tables are
+committed here as CSV with the commit, date and wall time of the run (meta.json); docs/hooks.py
+renders them on the seed pages (``<!-- scenario: NAME -->``). Every number on those pages is then
+one the scenario computed, never typed in by hand. Rerun this after a change that moves them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import importlib
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[2]
+OUT = ROOT / "docs" / "papers" / "tables"
+
+def _drop_summary(df: pd.DataFrame) -> pd.DataFrame:
+    """hyq-drop writes its channels (drop.parquet, one block per model); its summary table of peaks
+    and settling is recomputed from them with the report's own functions."""
+    from proleg.papers.hyq_report import summary_table
+    from proleg.papers.hyq_tests import drop_summary
+
+    order = list(dict.fromkeys(df["model"]))
+    summ = summary_table({m: drop_summary(df[df["model"] == m].drop(columns="model").reset_index(drop=True)) for m in order})
+    return summ.reset_index()
+
+
+# scenario -> [(Parquet file in results/NAME/, title, columns to keep, None for all, or a function
+# of the table that derives the one to show)]
+TABLES = {
+    "hyq-drop": [("drop.parquet", "Drop test: peaks, settling and differences from the rigid leg (seed 000 Fig. 5, seed 001)", _drop_summary)],
+    "hyq-static": [("static.parquet", "Static test: payloads on the slider, pose, cylinder forces and ground reaction", None)],
+    "torso-modal": [("table2_comparison.parquet", "Seed 001 Table 2 against the FE model and the identified prototype", None)],
+    "flegx-jump": [("metrics.parquet", "Countermovement jump, No. 4, 250×70×3 link: rigid vs PRBM vs Craig–Bampton", None)],
+    "flegx-machinery": [("metrics.parquet", "Worm gears in the dynamics vs ideal gears (seed 002 Fig. 4)", None)],
+    "flegx-study": [("table1.parquet", "Seed 002 Table I: configurations 1–4 × link cases, next to the paper", None)],
+    "scout2-bound": [("metrics.parquet", "Bounding gait metrics, Model I and Model II (seed 003 §5)", None)],
+    "torque-sensor-study": [("designs.parquet", "Torque-sensor concepts and the optimised design (seed 001 Problem 2)", None)],
+}
+
+
+def _git(*args) -> str:
+    return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True).stdout.strip()
+
+
+def run(name: str, out_dir: Path) -> float:
+    from proleg.cli.main import SCENARIOS
+
+    module, function, _ = SCENARIOS[name]
+    fn = getattr(importlib.import_module(module), function)
+    t0 = time.perf_counter()
+    try:
+        fn(str(out_dir), progress=False)
+    except TypeError:  # a runner without the progress keyword
+        fn(str(out_dir))
+    return time.perf_counter() - t0
+
+
+def collect(name: str, results: Path, wall_s: float | None) -> Path:
+    folder = OUT / name
+    folder.mkdir(parents=True, exist_ok=True)
+    tables = []
+    for file, title, cols in TABLES[name]:
+        df = pd.read_parquet(results / file)
+        if callable(cols):
+            df = cols(df)
+        elif cols:
+            df = df[cols]
+        if not isinstance(df.index, pd.RangeIndex):
+            df = df.reset_index()
+        csv = Path(file).with_suffix(".csv").name
+        df.to_csv(folder / csv, index=False, float_format="%.6g")
+        tables.append({"file": file, "title": title, "csv": csv})
+    dirty = " (with uncommitted changes)" if _git("status", "--porcelain", "--", "src") else ""
+    meta = {"scenario": name, "commit": _git("rev-parse", "--short", "HEAD") + dirty,
+            "date": _dt.date.today().isoformat(), "wall_s": wall_s, "load_1min": round(os.getloadavg()[0], 1), "tables": tables}
+    (folder / "meta.json").write_text(json.dumps(meta, indent=2) + "\n")
+    return folder
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("scenarios", nargs="+", choices=sorted(TABLES))
+    ap.add_argument("--no-run", action="store_true", help="collect the tables already in results/NAME/")
+    ap.add_argument("--results", default=str(ROOT / "results"))
+    a = ap.parse_args(argv)
+    for name in a.scenarios:
+        results = Path(a.results) / name
+        wall = None if a.no_run else run(name, results)
+        print(f"{name}: {collect(name, results, wall)}", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main()
