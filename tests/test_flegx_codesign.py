@@ -73,7 +73,7 @@ def test_push_at_limits_finds_the_binding_constraint(monkeypatch):
 
 def test_report_sentences_are_computed_from_the_codesign_rows(monkeypatch, tmp_path):
     """The FLEGX study report's co-design lines carry the run's numbers (none frozen)."""
-    from proleg.robots import flegx_report
+    from proleg.papers import flegx_report
 
     def fake(c, case, lm, store=None):
         return {"configuration": c, "link_case": case, "link_model": lm, "paper_jump_mm": 100.0 + c, "paper_stress_MPa": 520.0,

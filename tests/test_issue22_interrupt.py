@@ -33,14 +33,14 @@ def test_store_holds_the_returned_rows(tmp_path):
     Result from it, and a rerun into the same store replaces it."""
     system = pl.assemble(pendulum())  # noqa: F821 (from PENDULUM)
     store = tmp_path / "runs" / "pend.parquet"
-    res = pl.simulate(system, 0.2, 0.01, run=pl.RunOptions(chunk=5), store=store)
+    res = pl.simulate(system, 0.2, 0.01, run=pl.RunOptions(chunk=5), store=store, integrator=pl.GeneralizedAlpha())  # the chunked loop
     files = sorted(p.name for p in store.iterdir())
     assert files == [f"part-{k:05d}.parquet" for k in range(4)]  # 20 outputs in chunks of 5
     back = read_store(system, store)
     np.testing.assert_array_equal(back.t, res.t)
     for a, b in [(back.q, res.q), (back.v, res.v), (back.w, res.w)]:
         np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
-    pl.simulate(system, 0.1, 0.01, run=pl.RunOptions(chunk=5), store=store)
+    pl.simulate(system, 0.1, 0.01, run=pl.RunOptions(chunk=5), store=store, integrator=pl.GeneralizedAlpha())
     assert len(pd.read_parquet(store)) == 11
 
 
@@ -57,7 +57,7 @@ import jax
 jax.config.update("jax_enable_x64", True)
 system = pl.assemble(pendulum())
 try:
-    pl.simulate(system, 1e4, 1e-2, chunk=20, store=sys.argv[1], progress=False, rtol=1e-9, atol=1e-10)
+    pl.simulate(system, 1e4, 1e-2, store=sys.argv[1], progress=False, run=pl.RunOptions(chunk=20), integrator=pl.GeneralizedAlpha(rtol=1e-9, atol=1e-10))
 except pl.Interrupted as exc:
     r = exc.result
     print("interrupted", len(r.t), r.status.name, flush=True)

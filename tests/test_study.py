@@ -73,7 +73,9 @@ def test_grid_study_equals_a_loop_of_simulate(system, tmp_path):
     tab = st.run(design="grid", n=2, executor="vmap", store=tmp_path / "s", workers=1, progress=False)
     assert len(tab) == 4 and (tab["status"] == "success").all()
     for row in tab.to_dict("records"):
-        ref = pl.simulate(system.with_params({"spring.stiffness": row["spring.stiffness"], "spring.damping": row["spring.damping"]}), progress=False, **KW)
+        # a study's batches run generalized-alpha when no integrator is named (analyses/sweep.py)
+        ref = pl.simulate(system.with_params({"spring.stiffness": row["spring.stiffness"], "spring.damping": row["spring.damping"]}), progress=False,
+                          integrator=pl.GeneralizedAlpha(), **KW)
         assert row["x_end"] == pytest.approx(float(ref.part("lower").position[-1, 0]), abs=1e-10)
         assert row["steps"] == ref.stats["steps"]
     assert {"wall_s", "worker", "batch", "key"} <= set(tab.columns)
@@ -156,7 +158,7 @@ def test_a_builder_study_groups_variants_by_shape():
     tab = st.run(design="grid", n=1, executor="vmap", workers=1, progress=False)
     assert (tab["status"] == "success").all() and len(tab) == 4
     for row in tab.to_dict("records"):
-        ref = pl.simulate(build(row["links"], row["k"]), progress=False, **KW)
+        ref = pl.simulate(build(row["links"], row["k"]), progress=False, integrator=pl.GeneralizedAlpha(), **KW)
         assert row["z_tip"] == pytest.approx(float(ref.marker("tip").position[-1, 2]), abs=1e-10)
     assert tab.groupby("links")["batch"].nunique().max() == 1  # one batch, one sweep per shape
 

@@ -51,7 +51,7 @@ def test_each_variant_equals_its_own_simulation(system, swept):
         np.testing.assert_allclose(r.t, ref.t)
         np.testing.assert_allclose(np.asarray(r.q), np.asarray(ref.q), rtol=0, atol=1e-10)
         np.testing.assert_allclose(r.part("lower").position, ref.part("lower").position, rtol=0, atol=1e-10)
-        assert {k: int(v[i]) for k, v in swept.stats.items()} == ref.stats
+        assert {k: int(v[i]) for k, v in swept.stats.items()} == {k: ref.stats[k] for k in swept.stats}
         assert r.system.get("spring.stiffness") == pytest.approx(VALUES["spring.stiffness"][i])
 
 

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..assembly.system import System
 from ..errors import Interrupted, ModelError, SolverError, Status
+from ..solvers import driver as _driver  # noqa: F401  (registers the α-methods' run loop)
 from ..solvers.initial import _consistent_state, consistent_state, initial_z, sample_period  # noqa: F401 (re-exported)
 from .checks import check_simulate
 from .placement import _any_traced, placed

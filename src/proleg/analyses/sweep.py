@@ -221,7 +221,11 @@ def sweep(
     meta = {}
 
     run_kw = simulate_kwargs(simulate_kw)
-    integ = run_kw.get("integrator") or GeneralizedAlpha()
+    # No integrator named: generalized-alpha, whose batched loop lets each variant run free
+    # (free_running); simulate's integrator="auto" applies to single runs (solvers/auto.py).
+    integ = run_kw.get("integrator")
+    if integ is None or type(integ).__name__ == "Auto":
+        integ = GeneralizedAlpha(**(integ.given() if integ is not None else {}))
     run_kw["integrator"] = dataclasses.replace(integ, lu_per_lane=concurrent)
     run_kw["run"] = dataclasses.replace(run_kw.get("run") or RunOptions(), chunk=1_000_000, free_running=True)
 

@@ -34,6 +34,11 @@ import numpy as np
 from ..errors import SolverError, Status
 
 
+#: run-level loops that live in modules importing their method's module (solvers/driver.py
+#: registers the α-methods' loop here), so that a method's ``run`` needs no import of them
+RUNNERS: dict = {}
+
+
 @dataclass(frozen=True)
 class RunRequest:
     """What :func:`proleg.simulate` asks of an integrator's ``run`` (analyses/simulate.py builds it).

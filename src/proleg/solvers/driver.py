@@ -513,3 +513,12 @@ def _failure_message(system, status, t, worst):
             if names:
                 where += f" (contact/element: {', '.join(names)})"
     return f"{status.describe()} at t = {t:.6g} s; worst offender: {where}."
+
+
+def _register():
+    from .base import RUNNERS
+
+    RUNNERS["alpha"] = run_alpha
+
+
+_register()

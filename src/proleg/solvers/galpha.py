@@ -132,10 +132,11 @@ class AbstractAlphaIntegrator(AbstractIntegrator):
     order = 2
 
     def run(self, system, request):
-        """The compiled chunk loop of solvers/driver.py over ``request``."""
-        from .driver import run_alpha
+        """The compiled chunk loop of solvers/driver.py over ``request`` (registered there in
+        :data:`proleg.solvers.base.RUNNERS`: the driver imports this module, not the reverse)."""
+        from .base import RUNNERS
 
-        return run_alpha(self, system, request)
+        return RUNNERS["alpha"](self, system, request)
 
     def step_options(self) -> StepOptions:
         return StepOptions(
