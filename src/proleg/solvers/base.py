@@ -31,7 +31,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..errors import SolverError, Status
+from ..errors import Status
 
 
 #: run-level loops that live in modules importing their method's module (solvers/driver.py
@@ -285,10 +285,3 @@ def run_steps(method, system, request: RunRequest) -> Solution:
 
 
 _STEP_JIT = None
-
-
-def finish(solution: Solution, throw: bool, result):
-    """Raise :class:`SolverError` with ``result`` when the run failed and ``throw`` is set."""
-    if solution.status != Status.SUCCESS and throw:
-        raise SolverError(solution.message, result)
-    return result
