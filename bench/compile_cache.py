@@ -25,7 +25,11 @@ the README's ten-line double pendulum (2 s, outputs every 1 ms) and the 7-link c
 fresh process with an empty cache (cold) and again with that cache (warm); the time and the
 compile events of each stage (import, assemble, simulate, to_frame: trace, lower, XLA seconds,
 executables built) and the compilations ``to_frame`` triggered (target 0). Targets: README
-example ≤ 3 s cold, ≤ 1 s warm; 7-link chain ≤ 6 s cold.
+example ≤ 3 s cold, ≤ 1 s warm; 7-link chain ≤ 6 s cold. ``hyq`` adds the whole HyQ
+(``proleg.robots.hyq()``, 0.3 s of its drop) as a HyQ model's first run. ``--src DIR`` runs
+the same children on another checkout's sources too (PYTHONPATH, interleaved with this one's
+runs so both see the same load): issue 29's "time to first result must not regress" is this
+table with ``--src`` a worktree of the commit before ``integrator="auto"`` (e754ddf).
 """
 
 from __future__ import annotations
@@ -81,8 +85,12 @@ def stage(name, fn):
         stages[name] = dict(wall=time.perf_counter() - t, **{{k: v for k, v in ev.summary().items() if k != "xla by function [s]"}})
     return out
 
-model = readme_model() if {model!r} == "readme" else build_chain(7)
-t_end, dt = (2.0, 1e-3) if {model!r} == "readme" else (1.0, 1e-3)
+if {model!r} == "hyq":
+    from proleg.robots import hyq
+    model, t_end, dt = hyq(), 0.3, 1e-3
+else:
+    model = readme_model() if {model!r} == "readme" else build_chain(7)
+    t_end, dt = (2.0, 1e-3) if {model!r} == "readme" else (1.0, 1e-3)
 system = stage("assemble", lambda: pl.assemble(model))
 result = stage("simulate", lambda: pl.simulate(system, t_end=t_end, dt_output=dt))
 df = stage("to_frame", lambda: result.to_frame())
@@ -94,23 +102,23 @@ try:
 except ImportError:  # a proleg before the compile cache (for a before/after table)
     exports = {{"loaded": 0, "exported": 0, "unkeyed": 0}}
 print("RESULT " + json.dumps(dict(t_import=t_import, total=total, cpu=cpu, stages=stages, rows=len(df), cols=len(df.columns), steps=result.stats["steps"],
-                                  exports=exports)))
+                                  exports=exports, integrator=str(result.stats.get("integrator", "GeneralizedAlpha (default)")))))
 """
 
 TABLE_COLUMNS = [
     "model", "cache", "import → table [s]", "CPU [s]", "import [s]", "assemble [s]", "simulate [s]", "to_frame [s]",
     "trace [s]", "lower [s]", "xla [s]", "executables", "to_frame executables", "cache hits", "traced fns loaded/written",
-    "steps", "table", "runs",
+    "steps", "table", "runs", "integrator", "source",
 ]
 
 
-def run_table(model: str, env: dict, cache: str) -> dict:
+def run_table(model: str, env: dict, cache: str, source: str = "this checkout") -> dict:
     code = CHILD_TABLE.format(bench=str(BENCH_DIR), model=model)
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=1800)
     line = next((ln for ln in p.stdout.splitlines() if ln.startswith("RESULT ")), None)
     if p.returncode != 0 or line is None:
         tail = (p.stderr or p.stdout).strip().splitlines()[-5:]
-        return {"model": model, "cache": cache, "status": f"child failed (rc {p.returncode}): " + " | ".join(tail)}
+        return {"model": model, "cache": cache, "source": source, "status": f"child failed (rc {p.returncode}): " + " | ".join(tail)}
     r = json.loads(line[len("RESULT "):])
     st = r["stages"]
     tot = lambda k: sum(s.get(k, 0) for s in st.values())  # noqa: E731
@@ -121,6 +129,7 @@ def run_table(model: str, env: dict, cache: str) -> dict:
         "executables": tot("xla compiles"), "to_frame executables": st["to_frame"]["xla compiles"],
         "cache hits": tot("cache hits"), "steps": r["steps"], "table": f"{r['rows']} × {r['cols']}",
         "traced fns loaded/written": f"{r['exports']['loaded']}/{r['exports']['exported']}" + (f" ({r['exports']['unkeyed']} unkeyed)" if r["exports"]["unkeyed"] else ""),
+        "integrator": r.get("integrator"), "source": source,
     }
 
 
@@ -134,22 +143,26 @@ def main_table(args):
     base.pop("PYTHONDONTWRITEBYTECODE", None)
     base.pop("JAX_COMPILATION_CACHE_DIR", None)
     subprocess.run([sys.executable, "-c", "import proleg"], env=dict(base, PROLEG_CACHE_DIR=""), check=True, capture_output=True)
+    sources = [("this checkout", None)] + [(f"src {d}", d) for d in args.src]
+    for _, d in sources[1:]:
+        subprocess.run([sys.executable, "-c", "import proleg"], env=dict(base, PROLEG_CACHE_DIR="", PYTHONPATH=d), check=True, capture_output=True)
     rows = []
     for model in args.models:
-        runs = {"cold": [], "warm": []}
-        reps = args.repeat or 5
+        runs = {(s, c): [] for s, _ in sources for c in ("cold", "warm")}
+        reps = args.repeat or (2 if model == "hyq" else 5)
         for i in range(reps):
-            tmp = tempfile.TemporaryDirectory(prefix="proleg-jax-cache-")
-            env = dict(base, PROLEG_CACHE_DIR=tmp.name)
-            try:
-                for cache in ("cold", "warm"):
-                    log(f"{model}: {cache} ({i + 1}/{reps}) ...")
-                    row = run_table(model, env, cache)
-                    log(f"  {row}")
-                    runs[cache].append(row)
-            finally:
-                tmp.cleanup()
-        for cache, rs in runs.items():
+            for source, src in sources:  # interleaved: the same load for every source
+                tmp = tempfile.TemporaryDirectory(prefix="proleg-jax-cache-")
+                env = dict(base, PROLEG_CACHE_DIR=tmp.name, **({"PYTHONPATH": src} if src else {}))
+                try:
+                    for cache in ("cold", "warm"):
+                        log(f"{model} ({source}): {cache} ({i + 1}/{reps}) ...")
+                        row = run_table(model, env, cache, source)
+                        log(f"  {row}")
+                        runs[(source, cache)].append(row)
+                finally:
+                    tmp.cleanup()
+        for (_, cache), rs in runs.items():
             ok = sorted((r for r in rs if "import → table [s]" in r), key=lambda r: r["import → table [s]"])
             if not ok:
                 rows.append(rs[-1])
@@ -168,7 +181,7 @@ def main_table(args):
         "CPU = the process's CPU time (all threads), less sensitive to other jobs' load than the wall time.",
     ]
     for r in rows:
-        tgt = targets.get((r["model"], r["cache"]))
+        tgt = targets.get((r["model"], r["cache"])) if r.get("source", "this checkout") == "this checkout" else None
         if tgt is not None and "import → table [s]" in r:
             notes.append(f"{r['model']} {r['cache']}: {r['import → table [s]']:.1f} s from import to the table, target ≤ {tgt:g} s: "
                          + ("met." if r["import → table [s]"] <= tgt else "not met."))
@@ -215,7 +228,9 @@ def main(argv=None):
     ap.add_argument("--t-end", type=float, default=10.0, help="simulated time [s] (default 10)")
     ap.add_argument("--modes", nargs="+", choices=["fresh", "none", "default", "jax-env"], default=["fresh", "none"])
     ap.add_argument("--table", action="store_true", help="time from import to the DataFrame (issue 20) instead")
-    ap.add_argument("--models", nargs="+", choices=["readme", "chain7"], default=["readme", "chain7"])
+    ap.add_argument("--models", nargs="+", choices=["readme", "chain7", "hyq"], default=["readme", "chain7", "hyq"])
+    ap.add_argument("--src", nargs="*", default=[], help="--table: also run the children with PYTHONPATH=DIR (another checkout's src/, "
+                    "e.g. a worktree of an older commit), interleaved with this checkout's runs, for a before/after table")
     add_output_args(ap, "compile_cache")
     ap.set_defaults(repeat=None)  # --table: cold/warm pairs per model, the median reported (default 5)
     args = ap.parse_args(argv)

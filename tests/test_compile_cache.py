@@ -284,3 +284,37 @@ def test_trail_prefetches_the_step_loop_in_the_next_process(tmp_path):
     third = run()
     assert third["warned"] and third["stats"]["prefetched"] == 0 and third["q"] == first["q"]
     assert run()["stats"]["prefetched"] == 1  # rewritten by the third
+
+
+def swing():
+    """A double pendulum (a smooth tree: ``integrator="auto"`` runs Tsit5 on joint coordinates)."""
+    model = pl.Model("swing", gravity=(0, 0, -9.81))
+    a = model.add_part("a", 1.0, (0.01, 0.08, 0.08), (0.5, 0, 0))
+    b = model.add_part("b", 1.0, (0.01, 0.08, 0.08), (1.5, 0, 0))
+    model.add_joint(pl.Revolute("pa", a, model.ground, at=(0, 0, 0), axis=(0, 1, 0)))
+    model.add_joint(pl.Revolute("pb", b, a, at=(1, 0, 0), axis=(0, 1, 0)))
+    return pl.assemble(model)
+
+
+@pytest.mark.parametrize("integrator", ["auto", "radau5"])
+def test_the_ode_and_radau_loops_are_kept_on_disk(cache, integrator):
+    """A new process must not trace the integration loop again (seconds of every warm start,
+    issue 29): Diffrax's loop once held equinox's host-callback checks of its output times, which
+    neither jax.export nor XLA's persistent cache can keep, so it was traced and compiled anew in
+    every process. Here the loop is written to disk, then, with the in-process executables
+    dropped (as in a new process), loaded from it and not exported again; equinox's own error
+    mode is left as it was."""
+    import equinox._errors as eqx_errors
+
+    mode = eqx_errors.EQX_ON_ERROR
+    system = swing()
+    kw = {} if integrator == "auto" else dict(integrator=pl.Radau5(rtol=1e-6))
+    first = pl.simulate(system, t_end=0.2, dt_output=0.05, progress=False, **kw)
+    loop = "_run_free" if integrator == "auto" else "_run"
+    assert any(p.name.startswith(loop + "-") for p in cache.iterdir()), sorted(p.name for p in cache.iterdir())
+    cc.clear()
+    exported, loaded = cc.stats["exported"], cc.stats["loaded"]
+    again = pl.simulate(system, t_end=0.2, dt_output=0.05, progress=False, **kw)
+    assert cc.stats["exported"] == exported and cc.stats["loaded"] > loaded
+    np.testing.assert_array_equal(np.asarray(again.q), np.asarray(first.q))
+    assert eqx_errors.EQX_ON_ERROR == mode

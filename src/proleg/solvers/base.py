@@ -167,13 +167,17 @@ def output_grid(t0, times):
 _absolute = None
 
 
+def _absolute_batch(dyn, xs, us):
+    return jax.vmap(lambda d, x, u: d.absolute(x, u), in_axes=(None, 0, 0))(dyn, xs, us)
+
+
 def absolute_outputs(dyn, xs, us):
     """Absolute (q, v) of a batch of reduced states (one compiled executable per coordinate set)."""
     global _absolute
     if _absolute is None:
-        from ..compile_cache import jit
+        from ..compile_cache import cached_jit
 
-        _absolute = jit(jax.vmap(lambda d, x, u: d.absolute(x, u), in_axes=(None, 0, 0)))
+        _absolute = cached_jit(_absolute_batch)
     return _absolute(dyn, xs, us)
 
 

@@ -29,6 +29,7 @@ smoother PI setting Hairer recommends for stiff problems (Kvaerno5's default her
 
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import dataclass
 
@@ -144,17 +145,47 @@ class Kvaerno5(AbstractODEIntegrator):
         return diffrax.Kvaerno5()
 
 
+@contextlib.contextmanager
+def _no_callback_checks():
+    """Equinox's runtime checks off while Diffrax is traced here.
+
+    ``diffeqsolve`` checks ``saveat.ts`` (increasing, within [t0, t1]) with ``eqx.error_if``,
+    whose "raise" mode is a host callback. A host callback cannot be serialised by
+    ``jax.export`` nor kept in XLA's persistent cache, so every new process traced and compiled
+    the integration loop again: seconds of every warm start (bench/compile_cache.py --table).
+    The output times reaching :func:`solve` were checked already by ``output_grid`` (and
+    ``simulate``'s own validation), so nothing is lost; the step limit and non-finite states are
+    reported through Diffrax's result code (``throw=False``), not through these checks. Equinox
+    reads the mode from a module global at trace time; a future equinox without it leaves the
+    checks on (correct, only slower to start)."""
+    try:
+        from equinox import _errors
+    except ImportError:  # pragma: no cover - equinox always comes with diffrax
+        yield
+        return
+    if not hasattr(_errors, "EQX_ON_ERROR"):
+        yield
+        return
+    old = _errors.EQX_ON_ERROR
+    _errors.EQX_ON_ERROR = "off"
+    try:
+        yield
+    finally:
+        _errors.EQX_ON_ERROR = old
+
+
 def solve(integrator, dyn, y0, z, t0, t1, tol, ts=None, dt0=None, dt_max=None, fixed=False):
     """Integrate y0 from t0 to t1 with ``z`` held, tolerances ``tol`` = (rtol, atol); ``fixed``: constant
     steps dt0. The states at ``ts`` (or at t1). Returns (ys, accepted steps, rejected steps, ok)."""
     import diffrax
 
     saveat = diffrax.SaveAt(ts=ts) if ts is not None else diffrax.SaveAt(t1=True)
-    sol = diffrax.diffeqsolve(
-        diffrax.ODETerm(vector_field), integrator.solver(fixed), t0, t1, dt0, y0,
-        args=(dyn, z, integrator.stabilization), saveat=saveat, stepsize_controller=integrator.controller(tol, dt_max, fixed),
-        max_steps=integrator.max_steps, throw=False, adjoint=diffrax.ForwardMode(),
-    )
+    with _no_callback_checks():
+        sol = diffrax.diffeqsolve(
+            diffrax.ODETerm(vector_field), integrator.solver(fixed), t0, t1, dt0, y0,
+            args=(dyn, z, integrator.stabilization), saveat=saveat, stepsize_controller=integrator.controller(tol, dt_max, fixed),
+            max_steps=integrator.max_steps, throw=False, adjoint=diffrax.ForwardMode(),
+        )
     return sol.ys, sol.stats["num_accepted_steps"], sol.stats["num_rejected_steps"], sol.result == diffrax.RESULTS.successful
 
 
@@ -191,11 +222,11 @@ _JITS = {}
 
 def _jits():
     if not _JITS:
-        from ..compile_cache import jit
+        from ..compile_cache import cached_jit  # on disk: a new process skips the trace (the loop's is seconds)
 
-        _JITS["start"] = jit(_start)
-        _JITS["free"] = jit(_run_free, xla="loop", static_argnums=(0, 7, 8))
-        _JITS["sampled"] = jit(_run_sampled, xla="loop", static_argnums=(0, 8, 9))
+        _JITS["start"] = cached_jit(_start)
+        _JITS["free"] = cached_jit(_run_free, xla="loop", static_argnums=(0, 7, 8))
+        _JITS["sampled"] = cached_jit(_run_sampled, xla="loop", static_argnums=(0, 8, 9))
     return _JITS
 
 

@@ -417,10 +417,10 @@ def run_radau(ig: Radau5, system, request: RunRequest) -> Solution:
     from .initial import _consistent_state, initial_z, sample_period
 
     if not _JITS:
-        from ..compile_cache import jit
+        from ..compile_cache import cached_jit  # on disk: a new process skips the trace
 
-        _JITS["run"] = jit(_run, xla="loop", static_argnums=(0,))
-        _JITS["reduce"] = jit(_reduce)
+        _JITS["run"] = cached_jit(_run, xla="loop", static_argnums=(0,))
+        _JITS["reduce"] = cached_jit(_reduce)
     t0 = float(request.t0)
     times = output_grid(t0, request.times)
     q, v, qdd, lam, z0, _ = _consistent_state(system, request.q0, request.v0, t0, initial_z(system))
