@@ -86,7 +86,7 @@ def test_static_torques_against_pinocchio():
 
 @pytest.mark.slow
 def test_hyq_stand():
-    from proleg.robots.hyq import stand
+    from proleg.papers.hyq_stand import stand
 
     res, feet, joints, extra = stand(t_end=1.5)
     assert np.abs(feet["error [%]"]).max() < 1.0

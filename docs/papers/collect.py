@@ -47,6 +47,10 @@ TABLES = {
     "flegx-machinery": [("metrics.parquet", "Worm gears in the dynamics vs ideal gears (seed 002 Fig. 4)", None)],
     "flegx-study": [("table1.parquet", "Seed 002 Table I: configurations 1–4 × link cases, next to the paper", None)],
     "scout2-bound": [("metrics.parquet", "Bounding gait metrics, Model I and Model II (seed 003 §5)", None)],
+    "hyq-stand": [("feet.parquet", "Whole HyQ settled on four feet: vertical ground reaction per foot against its weight share", None),
+                  ("joints.parquet", "Servo torques against the static closed form (moments of distal gravity and foot reaction)", None)],
+    "hyq-bushing-study": [("table.parquet", "8-bushing drop against the pins' radial stiffness (a proleg.study)",
+                           ["pin_stiffness", "peak_hip_force", "peak_knee_force", "status", "steps", "newton_iterations"])],
     "torque-sensor-study": [("designs.parquet", "Torque-sensor concepts and the optimised design (seed 001 Problem 2)", None)],
 }
 

@@ -93,6 +93,7 @@ def run_bushing_study(out_dir="results/hyq-bushing-study", progress: bool = True
     study = bushing_study()
     table = study.run(design="grid", n=n, executor=executor, store=out, progress=progress, **run_kw)
     table.to_csv(out / "table.csv", index=False)
+    table.to_parquet(out / "table.parquet", index=False)
     return study_report(out, out / "report.html")
 
 

@@ -11,7 +11,7 @@ in :mod:`proleg.papers`, which imports these builders; nothing here imports it.
 - :func:`flegx`: the FLEGX flexible jumping leg (seed 002), rigid / PRBM / Craig-Bampton
   lower leg; its countermovement jump with metrics is :func:`proleg.papers.flegx_jump`.
 - :func:`hyq`: the whole HyQ quadruped from its URDF (example-robot-data), PD servos and foot
-  contacts (:mod:`proleg.robots.hyq`; its stand scenario, ``proleg run hyq-stand``, is run_stand there).
+  contacts (:mod:`proleg.robots.hyq`; its stand scenario, ``proleg run hyq-stand``, is in :mod:`proleg.papers.hyq_stand`).
 - :func:`hyq_trot`: the whole HyQ trotting on hydraulic cylinders with chamber pressures or on
   ideal torque sources (:mod:`proleg.robots.hyq_trot`); scenario ``proleg run hyq-trot``.
 """
