@@ -31,9 +31,13 @@ rtol^(2/3) (0.7 decade per decade); a user who asks for a tolerance gets Radau5,
 follows rtol (≥ 0.9 decade per decade). At the defaults the α-method's robustness and faster
 first compile win.
 
-Default tolerances: Tsit5 rtol = 1e-7, atol = 1e-8 (order 5: the global error of a smooth
-model stays within about 100× rtol — the undamped double pendulum's energy error 2.2e-7 over
-10 s, the IFToMM A01 pendulum 2.2e-4 m over 100 s, bench/accuracy.py); the α-methods keep
+Default tolerances: Tsit5 rtol = 1e-7, atol = 1e-8 (order 5). The rule: a smooth model's
+global error over a run of a few tens of its periods stays within about 100× rtol, and the
+error falls with rtol at about one decade per decade (bench/accuracy.py --defaults, --slopes):
+the undamped double pendulum's energy error is 2.2e-7 over 10 s, the 8-link chain's drift
+1.5e-8. A phase error grows with the run's length: the IFToMM A01 pendulum is 2.2e-4 m off
+after 100 s (about 50 swings; its benchmark's target is 1e-3 m), so ask for a smaller rtol
+for long runs whose phase matters. The α-methods keep
 their own (rtol 1e-6, atol 1e-7: second order, error ∝ rtol^(2/3)); Radau5 runs at the rtol
 asked for, atol = rtol/10. ``result.stats["integrator"]`` names the method and the reason.
 """
