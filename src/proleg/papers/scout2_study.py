@@ -36,6 +36,7 @@ RANGES = {
     "leg_overlap": (D.LEG_OVERLAP_RANGE, "m", "bushing overlap (bending-moment arm)"),
     "gear_drag": (D.GEAR_DRAG_RANGE, "N m", "gearbox + motor no-load drag at the motor shaft"),
     "gear_viscous": (D.GEAR_VISCOUS_RANGE, "N m s/rad", "gearbox viscous drag at the motor shaft"),
+    "belt_no_load": (D.BELT_NO_LOAD_RANGE, "-", "belt no-load drag / full leg torque (Table 3's 96 % kept at full torque)"),
 }
 #: The paper's measured points (seed 003 §3.3, Fig. 7): (speed [m/s], mechanical, electrical
 #: specific resistance). Reference values for the comparison tables only.
