@@ -161,3 +161,14 @@ def test_model_II_belt_is_96_percent_at_full_torque_and_less_at_part_load():
     part1 = delivered_torque(d1, 0.2 * full1, -0.5, battery=False)
     part2 = delivered_torque(d2, 0.2 * full1, -0.5, battery=False)
     assert abs(float(part2.current)) > 1.03 * abs(float(part1.current)), (i, part1.current, part2.current)
+
+
+def test_drive_variants_are_not_silently_dropped():
+    """The drive is static topology: a study variant of it must not reuse the base's drive."""
+    from proleg.papers.scout2_study import variant_system
+
+    base = pl.assemble(scout2("II"))
+    for kw, check in (({"gear_drag": 0.02}, lambda d: d.gear_drag == 0.04), ({"belt_no_load": 0.02}, lambda d: d.belt.drag > 1.5)):
+        s = variant_system(base, "II", **kw)
+        g = next(g for g in s.topo.extensions if g.kind == "joint_actuator")
+        assert check(g.elements[0].drive), kw
