@@ -1,8 +1,8 @@
 """Scout II bounding (seed 003): wall time and step counts of each model's run, and the gait.
 
 Each model is assembled, then simulated for ``--t-end`` seconds (default 10) from the nominal
-start (:class:`proleg.robots.scout2.Scout2Params`: the apex of the double flight on Model I's
-cycle) twice in one process: the first call includes compilation, the second is the run alone.
+start (:class:`proleg.robots.scout2.Scout2Params`: standing, legs vertical, a 3 cm drop; the
+same for both models; bench/scout2_diagnose.py shows where the bound is lost) twice in one process: the first call includes compilation, the second is the run alone.
 Columns: compile+run and run wall times [s], steps, Newton iterations, the steady forward
 speed, period (1 = period-one bound), stride frequency, and the specific resistances (Eq. 8).
 The scenario ``proleg run scout2-bound`` runs these plus the leg-friction calibration, the

@@ -145,3 +145,30 @@ def test_bad_input():
         scout2("I", leg_stifness=3000.0)
     with pytest.raises(ModelError, match="sweep_back .* must be below touchdown_back"):
         scout2("I", sweep_back=25 * deg)
+
+
+def test_model_II_belt_is_96_percent_at_full_torque_and_less_at_part_load():
+    """Model II's belt stage (proleg.drives.belt) keeps Table 3's 96 % at the virtual leg's
+    current-limit torque and loses more at part load; Model I keeps the constant 96 %."""
+    d1 = scout2("I").scout2.drive
+    d2 = scout2("II", gear_drag=0.0, gear_viscous=0.0).scout2.drive
+    assert d1.belt is None and d2.belt is not None
+    full1 = delivered_torque(d1, -1e4, -0.5, battery=False).torque
+    full2 = delivered_torque(d2, -1e4, -0.5, battery=False).torque
+    np.testing.assert_allclose(full2, full1, rtol=2e-3)  # 0.97/1.01 = 0.9604 against 0.96
+    # 20 % of full torque: the same current gives less leg torque through the lossy belt
+    i = 0.2 * float(d1.i_max)
+    part1 = delivered_torque(d1, 0.2 * full1, -0.5, battery=False)
+    part2 = delivered_torque(d2, 0.2 * full1, -0.5, battery=False)
+    assert abs(float(part2.current)) > 1.03 * abs(float(part1.current)), (i, part1.current, part2.current)
+
+
+def test_drive_variants_are_not_silently_dropped():
+    """The drive is static topology: a study variant of it must not reuse the base's drive."""
+    from proleg.papers.scout2_study import variant_system
+
+    base = pl.assemble(scout2("II"))
+    for kw, check in (({"gear_drag": 0.02}, lambda d: d.gear_drag == 0.04), ({"belt_no_load": 0.02}, lambda d: d.belt.drag > 1.5)):
+        s = variant_system(base, "II", **kw)
+        g = next(g for g in s.topo.extensions if g.kind == "joint_actuator")
+        assert check(g.elements[0].drive), kw

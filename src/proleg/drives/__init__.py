@@ -2,6 +2,7 @@
 
 - :mod:`.dcmotor`  battery–amplifier–DC motor–gear drive of Scout II (seed 003, Eqs. 3–14)
 - :mod:`.gears`    gear trains with power-flow-dependent efficiency; FLEGX worm gear (seed 002)
+- :mod:`.belt`     belt and pulley stage with load- and speed-dependent losses (Scout II, Model II)
 - :mod:`.backlash` rotational spring-damper with a dead band (Scout II hip unit, Model II)
 """
 
@@ -9,6 +10,7 @@ from .backlash import backlash_torque as backlash_torque
 from .backlash import backlash_torque_smooth as backlash_torque_smooth
 from .backlash import deadband as deadband
 from .backlash import deadband_smooth as deadband_smooth
+from .belt import BeltLoss as BeltLoss
 from .dcmotor import DCMotorDrive as DCMotorDrive
 from .dcmotor import DriveOutput as DriveOutput
 from .dcmotor import delivered_torque as delivered_torque

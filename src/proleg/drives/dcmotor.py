@@ -45,6 +45,7 @@ import jax
 import jax.numpy as jnp
 
 from ..units import g_gravity
+from .belt import BeltLoss, belt_input_torque, belt_output_torque
 from .gears import GearTrain
 
 __all__ = [
@@ -88,6 +89,11 @@ class DCMotorDrive:
     gear_viscous : float [N m s/rad]  speed-proportional drag at the motor shaft (churning,
         seals), default 0: the efficiency then falls with speed.
     drag_speed : float [rad/s]  motor speed over which the Coulomb drag is smoothed (tanh), 1.0
+    belt : :class:`~proleg.drives.belt.BeltLoss` or None (default)
+        None: the belt stage is the constant ``belt_efficiency`` of Table 3, folded into α.
+        Given: the belt stage's load- and speed-dependent losses replace ``belt_efficiency`` in
+        the delivered torque (the planetary keeps η_g and its drag); ``alpha``, ``tau_max`` and
+        ``A`` (the controller's Eqs. 3–5) keep the paper's constant 96 %.
 
     Transmission law (Pelchen, Schweiger & Otter 2002, "Modeling and simulating the efficiency
     of gearboxes and of planetary gearboxes", the form of Modelica's LossyGear and of Adams
@@ -114,6 +120,7 @@ class DCMotorDrive:
     gear_drag: float = 0.0
     gear_viscous: float = 0.0
     drag_speed: float = 1.0
+    belt: BeltLoss | None = None
 
     def drag_torque(self, motor_speed):
         """τ_d(ω_m) [N m]: no-load drag at the motor shaft (see the class docstring)."""
@@ -179,17 +186,28 @@ def _source(drive: DCMotorDrive, battery: bool):
 
 def _leg_torque(drive: DCMotorDrive, current, leg_speed):
     """Leg torque [N m] for a motor current: β η τ_g motoring (τ_g φ̇ ≥ 0), (β / η) τ_g
-    back-driven, with the mesh torque τ_g = K_T i − τ_d(β φ̇) (no drag: α K_T i, (β²/α) K_T i)."""
+    back-driven, with the mesh torque τ_g = K_T i − τ_d(β φ̇) (no drag: α K_T i, (β²/α) K_T i).
+    With a ``belt`` (:class:`~proleg.drives.belt.BeltLoss`): the planetary's β η_g τ_g (or
+    β τ_g / η_g) enters the belt stage, whose law gives the leg torque."""
     tau_g = drive.K_T * current - drive.drag_torque(drive.beta * leg_speed)
     motoring = tau_g * leg_speed >= 0.0
-    return tau_g * jnp.where(motoring, drive.alpha, drive.beta**2 / drive.alpha)
+    if drive.belt is None:
+        return tau_g * jnp.where(motoring, drive.alpha, drive.beta**2 / drive.alpha)
+    eta_g = drive.gear_efficiency
+    tau_in = tau_g * drive.beta * jnp.where(motoring, eta_g, 1.0 / eta_g)
+    return belt_output_torque(drive.belt, tau_in, leg_speed)
 
 
 def _current(drive: DCMotorDrive, tau, leg_speed):
     """Motor current [A] that delivers leg torque τ (inverse of :func:`_leg_torque`: the map is
-    monotone, and the mesh torque has the sign of τ)."""
-    motoring = tau * leg_speed >= 0.0
-    tau_g = tau / jnp.where(motoring, drive.alpha, drive.beta**2 / drive.alpha)
+    monotone, and the mesh torque has the sign of τ, or of τ + the belt drag with a belt)."""
+    if drive.belt is None:
+        motoring = tau * leg_speed >= 0.0
+        tau_g = tau / jnp.where(motoring, drive.alpha, drive.beta**2 / drive.alpha)
+    else:
+        tau_in = belt_input_torque(drive.belt, tau, leg_speed)
+        eta_g = drive.gear_efficiency
+        tau_g = tau_in / (drive.beta * jnp.where(tau_in * leg_speed >= 0.0, eta_g, 1.0 / eta_g))
     return (tau_g + drive.drag_torque(drive.beta * leg_speed)) / drive.K_T
 
 

@@ -26,8 +26,9 @@ from .scout2_study import variant_system
 
 __all__ = ["run_bound", "variant_system", "bound_figures", "findings", "NOMINAL_START", "LOW_SPEED_TARGET"]
 
-# Initial condition of every run: the builder's (Scout2Params: the apex of the double flight on
-# Model I's bounding cycle); documented in the report. Override fields here to change it.
+# Initial condition of every run: the builder's (Scout2Params: at rest in the standing posture,
+# legs vertical, released from a 3 cm drop; the same for both models); documented in the report.
+# Override fields here to change it.
 NOMINAL_START: dict = {}
 # Commanded low speed (seed 003 §3.3 and §5.3: the robot's low-speed point, 0.85 m/s in Fig. 7);
 # the set points for it are found by bisection for each model (scout2_study.setpoint_for_speed).

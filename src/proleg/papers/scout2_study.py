@@ -36,19 +36,28 @@ RANGES = {
     "leg_overlap": (D.LEG_OVERLAP_RANGE, "m", "bushing overlap (bending-moment arm)"),
     "gear_drag": (D.GEAR_DRAG_RANGE, "N m", "gearbox + motor no-load drag at the motor shaft"),
     "gear_viscous": (D.GEAR_VISCOUS_RANGE, "N m s/rad", "gearbox viscous drag at the motor shaft"),
+    "belt_no_load": (D.BELT_NO_LOAD_RANGE, "-", "belt no-load drag / full leg torque (Table 3's 96 % kept at full torque)"),
 }
 #: The paper's measured points (seed 003 §3.3, Fig. 7): (speed [m/s], mechanical, electrical
 #: specific resistance). Reference values for the comparison tables only.
 PAPER_POINTS = ((1.3, D.SR_MECHANICAL, D.SR_ELECTRICAL), D.SR_LOW_SPEED)
 
 
+#: Scout2Params fields that change the (static) drive object rather than System parameters.
+DRIVE_FIELDS = frozenset({"drive", "motors_per_leg", "V_nom", "R_s", "gear_drag", "gear_viscous", "belt_no_load"})
+
+
 def variant_system(base: System, model: str, **params) -> System:
     """The system of ``scout2(model, **params)`` on ``base``'s compiled topology.
 
     Valid when the variant changes numbers only (masses, stiffnesses, gear inertias, the
-    initial condition): its parameter arrays replace ``base``'s, so nothing recompiles.
+    initial condition): its parameter arrays replace ``base``'s, so nothing recompiles. A
+    variant of the drive (``DRIVE_FIELDS``) is assembled anew: the drive is static topology,
+    and reusing ``base``'s would silently keep the old drive.
     """
     other = assemble(scout2(model, **params))
+    if DRIVE_FIELDS & set(params):
+        return other  # the drive (DCMotorDrive, its belt) is static in the topology: recompile
     if set(other.params) != set(base.params) or any(np.shape(other.params[k]) != np.shape(base.params[k]) for k in base.params):
         return other
     return System(dict(other.params), base.topo)

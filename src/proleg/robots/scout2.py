@@ -30,7 +30,9 @@
   in each telescopic leg growing with the leg's side load (``SlideFriction``: the toe's ground
   reaction normal to the leg and its bending moment over the bushing overlap) and a gearbox
   drag that makes the transmission efficiency depend on load, speed and the direction of power
-  flow (``DCMotorDrive.gear_drag``/``gear_viscous``). Their values are estimates with ranges
+  flow (``DCMotorDrive.gear_drag``/``gear_viscous``), and a belt stage whose losses depend on
+  the transmitted torque and speed (``DCMotorDrive.belt``, :mod:`proleg.drives.belt`: Table 3's
+  96 % at full torque, less at part load). Their values are estimates with ranges
   (scout2_data); the report calibrates the leg friction on one specific resistance.
 
 Initial condition (both models): at rest in the standing posture, legs vertical, released a
@@ -50,6 +52,7 @@ from dataclasses import dataclass, field
 import jax.numpy as jnp
 import numpy as np
 
+from ..drives.belt import scout2_belt
 from ..drives.dcmotor import DCMotorDrive
 from ..errors import ModelError
 from ..model.contacts import SphereContact
@@ -128,6 +131,7 @@ class Scout2Params:
     leg_v_friction: float = 5e-3  # m/s
     gear_drag: float = D.GEAR_DRAG  # N m at the motor shaft, per motor
     gear_viscous: float = D.GEAR_VISCOUS  # N m s/rad at the motor shaft, per motor
+    belt_no_load: float = D.BELT_NO_LOAD  # -, belt no-load drag / full leg torque (Model II, proleg.drives.belt)
     # initial condition: at rest in the standing posture (legs vertical, no speed, no pitch),
     # released ``drop`` above the height where the toes touch; the controller starts in flight
     # and brings the robot into the bound (the same start for both models)
@@ -166,7 +170,7 @@ def _check(p: Scout2Params, variant, per):
         if not np.isfinite(v) or v <= 0:
             raise ModelError(f"scout2: {name} must be positive and finite, got {v!r}.")
     for name in ("leg_damping", "R_s", "mu", "joint_stiction", "joint_damping", "belt_damping", "drive_gear_inertia", "driven_gear_inertia", "belt_stiffness",
-                 "leg_mu", "gear_drag", "gear_viscous"):
+                 "leg_mu", "gear_drag", "gear_viscous", "belt_no_load"):
         v = getattr(p, name)
         if not np.isfinite(v) or v < 0:
             raise ModelError(f"scout2: {name} must be non-negative, got {v!r}.")
@@ -193,10 +197,15 @@ def virtual_drive(p: Scout2Params, losses: bool = False) -> DCMotorDrive:
     """The equivalent virtual motor of ``motors_per_leg`` motors in parallel (same speed):
     K_T and K_ω unchanged, R_a / n, i_max · n, so torque and current scale by n (scout2_data).
     ``losses``: with the load- and speed-dependent gearbox drag of Model II (``gear_drag``,
-    ``gear_viscous`` per motor, n of them); otherwise the paper's constant efficiency."""
+    ``gear_viscous`` per motor, n of them) and the belt stage's losses
+    (:func:`proleg.drives.belt.scout2_belt`: Table 3's 96 % at the virtual leg's current-limit
+    torque, ``belt_no_load`` of it as no-load drag); otherwise the paper's constant efficiency."""
     n = p.motors_per_leg
-    return dataclasses.replace(p.drive, R_a=p.drive.R_a / n, i_max=p.drive.i_max * n, V_nom=p.V_nom, R_s=p.R_s,
-                               gear_drag=p.gear_drag * n if losses else 0.0, gear_viscous=p.gear_viscous * n if losses else 0.0)
+    d = dataclasses.replace(p.drive, R_a=p.drive.R_a / n, i_max=p.drive.i_max * n, V_nom=p.V_nom, R_s=p.R_s,
+                            gear_drag=p.gear_drag * n if losses else 0.0, gear_viscous=p.gear_viscous * n if losses else 0.0)
+    if losses:
+        d = dataclasses.replace(d, belt=scout2_belt(float(d.tau_current_limit), float(d.belt_efficiency), p.belt_no_load))
+    return d
 
 
 def scout2(model: str = "I", *, per: str = "physical", **params) -> Model:
@@ -445,6 +454,8 @@ def _parameter_table(p: Scout2Params, variant, per, drive):
             ("leg bushing overlap / centre below hip", f"{p.leg_overlap:g} / {p.leg_bearing:g}", "m", "estimate, ranges in scout2_data"),
             ("leg stiction / sliding transition speeds", f"{p.leg_v_stiction:g} / {p.leg_v_friction:g}", "m/s", "regularisation (Adams FRICTION)"),
             ("gear drag, Coulomb / viscous (per motor, motor shaft)", f"{p.gear_drag:g} / {p.gear_viscous:g}", "N m, N m s/rad", "estimate, ranges in scout2_data"),
+            ("belt stage: η at full torque / tension part / no-load drag", f"{p.drive.belt_efficiency:g} / {float(drive.belt.efficiency):g} / {float(drive.belt.drag):.3g} N m",
+             "-, -, N m at the virtual leg", "Table 3 (96 %) at full torque; split: estimate, range 0–2 % no-load (proleg.drives.belt)"),
         ]
     rows += [
         ("initial height / speed", f"{p.height:g} / {p.speed:g}", "m, m/s", "standing posture released from a small drop (same for both models)"),

@@ -102,6 +102,14 @@ GEAR_DRAG_RANGE = (0.0, 0.02)
 GEAR_VISCOUS = 1e-5  # N m s/rad, range (0, 5e-5)
 GEAR_VISCOUS_RANGE = (0.0, 5e-5)
 
+# Belt and pulley stage (Table 3: "belt and pulley efficiency 96 %", one number). Model II reads
+# it as the efficiency at the drive's full (current-limit) torque and splits it into a
+# tension-dependent 97 % and a no-load drag (bending hysteresis, seals) of 1 % of the full leg
+# torque: timing-belt catalogues give 94–98 % at rated load and lower at part load (Gates,
+# Synchronous belt drive design manual). proleg.drives.belt.scout2_belt builds it.
+BELT_NO_LOAD = 0.01  # -, fraction of the full leg torque, range (0, 0.02)
+BELT_NO_LOAD_RANGE = (0.0, 0.02)
+
 # Paper results to compare with (§5.2, Fig. 7, Fig. 16) ----------------------------------------
 SPEED_MEASURED = 1.286  # m/s, ± 0.04 (10 runs on carpet)
 SPEED_MEASURED_SD = 0.04
