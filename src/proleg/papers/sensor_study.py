@@ -1,5 +1,9 @@
 """Optimisation of the final torque-sensor concept with optuna, and ``proleg run torque-sensor-study``.
 
+The study's last section designs a spoke sensor to the text's twist requirement (about 1 deg at
+140 N m), which the tension-link concept below cannot meet (it twists 0.06 deg):
+:mod:`proleg.papers.sensor_requirement`.
+
 Problem (seed 001 Problem 2; ModeFRONTIER + Nastran in the paper): maximise the gauge strain of
 the ``final`` concept subject to gauge strain <= ``max_gauge_strain`` (0.06 %, the text's limit),
 max von Mises <= yield / ``safety`` and stiffness >= ``min_stiffness`` [N m/deg] (the text's
