@@ -1,5 +1,9 @@
 """Optimisation of the final torque-sensor concept with optuna, and ``proleg run torque-sensor-study``.
 
+The study's last section designs a spoke sensor to the text's twist requirement (about 1 deg at
+140 N m), which the tension-link concept below cannot meet (it twists 0.06 deg):
+:mod:`proleg.papers.sensor_requirement`.
+
 Problem (seed 001 Problem 2; ModeFRONTIER + Nastran in the paper): maximise the gauge strain of
 the ``final`` concept subject to gauge strain <= ``max_gauge_strain`` (0.06 %, the text's limit),
 max von Mises <= yield / ``safety`` and stiffness >= ``min_stiffness`` [N m/deg] (the text's
@@ -215,8 +219,10 @@ def _gauge_figure(results):
 
 
 def run_torque_sensor_study(out_dir="results/torque-sensor-study", *, n_trials: int = 16, workers: int = 2,
-                            convergence: bool = False) -> Path:
-    """The four concepts side by side, then the optimised final design; HTML + Parquet/JSON."""
+                            convergence: bool = False, requirement: bool = True, requirement_trials: int = 40) -> Path:
+    """The four concepts side by side, the optimised final design, then the spoke sensor designed to the
+    requirement (twist about 1 deg, :mod:`proleg.papers.sensor_requirement`, ``requirement_trials`` FE
+    trials); HTML + Parquet/JSON."""
     from ..report.html import Report
     from ..robots.sensor_fe import mesh_convergence
     from ..robots.torque_sensor import DEFAULTS, ENVELOPE
@@ -273,6 +279,16 @@ def run_torque_sensor_study(out_dir="results/torque-sensor-study", *, n_trials: 
     if conv is not None:
         rep.add_table(conv, "Mesh convergence of the optimised design (relative to the finest mesh).",
                       float_format="{:.4g}")
+    if requirement:
+        from .sensor_requirement import add_requirement_section, run_requirement
+
+        req = run_requirement(out, n_trials=requirement_trials, workers=min(workers, 2))
+        req["final_twist"] = results["final"].metrics["twist"]
+        add_requirement_section(rep, req)
+        (out / "requirement_optimum.json").write_text(json.dumps(
+            {"dimensions_m": req["fe"].dimensions, "binding": req["fe"].binding, "target_met": req["fe"].target_met,
+             "metrics": {k: (v if not isinstance(v, np.generic) else v.item()) for k, v in req["final"].metrics.items()}},
+            indent=2, default=str))
     rep.add_parameters([(f"{c}.{k}", v, "m" if isinstance(v, float) else "-", "chosen default")
                         for c, d in DEFAULTS.items() for k, v in d.items()], "Concept defaults")
     rep.add_key_values({"wall time [s]": f"{time.perf_counter() - t0:.1f}", "output": str(out)}, "Run")

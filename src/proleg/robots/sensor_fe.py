@@ -124,7 +124,7 @@ def torque_sensor_analysis(concept: str = "final", torque: float = 140.0, mesh_s
                            interface_band: float = 0.002, stress_stiffening: bool = True, refine_gauges: bool = True,
                            interface: str = "rigid", cases: tuple = ("A", "B"), geometry_checks: bool = True,
                            curvature_points: int = 0, fillet_size: float = 0.35, layers: int | None = None,
-                           **dimensions) -> SensorResult:
+                           envelope: dict | None = None, **dimensions) -> SensorResult:
     """FE analysis of one torque-sensor design (seed 001 Problem 2).
 
     Parameters
@@ -155,6 +155,8 @@ def torque_sensor_analysis(concept: str = "final", torque: float = 140.0, mesh_s
                                   max(1, round(thickness / (2 mesh_size))))
     geometry_checks : bool        run the gauge-face planarity / clearance checks (gmsh, ~2 s); False
                                   reports them as NaN / None
+    envelope : dict or None       overrides the assumed envelope (:data:`proleg.robots.torque_sensor.ENVELOPE`:
+                                  r_out, thickness max, r_bore min [m])
     **dimensions : [m]            concept dimensions (:data:`proleg.robots.torque_sensor.DEFAULTS`)
     """
     from ..fem import SolidModel
@@ -169,7 +171,7 @@ def torque_sensor_analysis(concept: str = "final", torque: float = 140.0, mesh_s
     if "A" not in cases or not set(cases) <= {"A", "B"}:
         raise ModelError(f"torque_sensor_analysis cases = {cases!r}; use ('A', 'B') or ('A',).")
     T = abs(float(torque))
-    design = sensor_design(concept, mesh_size, **dimensions)
+    design = sensor_design(concept, mesh_size, envelope=envelope, **dimensions)
     t0 = time.perf_counter()
     h = design.mesh_size
     refine = [(g.center, 0.004, h / 2) for g in design.gauges] if refine_gauges else None
