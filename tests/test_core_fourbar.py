@@ -81,10 +81,14 @@ def system():
 
 
 def test_assembled_geometry_closes():
-    assert C0 == pytest.approx([0.2987218950531729, 0.0, 0.2823875802126918], abs=1e-15)
-    assert np.linalg.norm(C0 - B0) == pytest.approx(LB, abs=1e-15)
-    assert np.linalg.norm(C0 - D_PT) == pytest.approx(LC, abs=1e-15)
-    assert rocker_angle(np.pi / 2) == pytest.approx(np.arctan2(C0[2], C0[0] - D_PT[0]), abs=1e-15)
+    # Round-off of the circle intersection (hypot, sqrt, a mild cancellation in b² − ℓ²; another
+    # libm may round each 1 ulp apart): 64 eps × 0.4 m, the ground link, = 5.7e-15 m; an error in
+    # the construction is ≥ 1e-6 m. Angles: 64 eps × π rad.
+    tol_m, tol_rad = 64 * np.finfo(float).eps * 0.4, 64 * np.finfo(float).eps * np.pi
+    assert C0 == pytest.approx([0.2987218950531729, 0.0, 0.2823875802126918], abs=tol_m)
+    assert np.linalg.norm(C0 - B0) == pytest.approx(LB, abs=tol_m)
+    assert np.linalg.norm(C0 - D_PT) == pytest.approx(LC, abs=tol_m)
+    assert rocker_angle(np.pi / 2) == pytest.approx(np.arctan2(C0[2], C0[0] - D_PT[0]), abs=tol_rad)
 
 
 def test_redundant_rows_dropped(system):
