@@ -111,7 +111,13 @@ def test_rocker_follows_closed_form(system):
     assert abs(phi[-1] - phi[0]) > 2 * np.pi  # the crank really turns
     psi_exact = np.array([rocker_angle(p) for p in phi])
     assert np.max(np.abs(psi - psi_exact)) < 1e-6
-    assert np.max(res.constraint_residual()) < 1e-9
+    # The loop closes to the integrator's constraint tolerance, not to round-off: step ends within
+    # 5 phi_tol (1e-10), outputs between steps projected to first order. Measured 7.9e-10 (Intel,
+    # AVX-512) and 1.13e-9 with XLA, NumPy and OpenBLAS limited to AVX2 (as on AMD Zen 2/3),
+    # so 50 phi_tol = 5e-9; a loop that drifts open is off by ≥ 1e-6.
+    from proleg.solvers.galpha import StepOptions
+
+    assert np.max(res.constraint_residual()) < 50 * StepOptions().phi_tol
     # the motion stays planar
     for name in ("crank", "coupler", "rocker"):
         assert np.max(np.abs(res.part(name).position[:, 1])) < 1e-9
