@@ -83,6 +83,8 @@ def test_cached_function_with_damaged_entry_recomputes_the_same_answer(store, tm
     ref = cc.cached_jit(fn)(x)
     (entry,) = cf.entry_files(tmp_path)
     cf.damage([entry], np.random.default_rng(1))
+    # bitwise: the rebuilt entry is the same program compiled again on this machine, and a
+    # wrong executable is what the comparison is there to catch
     with pytest.warns(pl.ProlegWarning, match="damaged entry") as rec:
         np.testing.assert_array_equal(cc.cached_jit(fn)(x), ref)
     assert len([w for w in rec if "proleg cache" in str(w.message)]) == 1

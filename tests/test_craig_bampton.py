@@ -100,6 +100,7 @@ def test_save_load_roundtrip(strip_beam, tmp_path):
     path = tmp_path / "strip.npz"
     body.save(path)
     back = ReducedBody.load(path)
+    # bitwise: arrays written to .npz and read back, no arithmetic
     assert np.array_equal(back.K, body.K) and np.array_equal(back.modes, body.modes)
     assert np.array_equal(back.node_dofs, body.node_dofs) and back.n_modes == 5
     assert set(back.invariants) == {f"I{i}" for i in range(1, 10)}

@@ -124,7 +124,7 @@ def test_backlash_coasts_in_the_dead_band(result):
     free = np.abs(th) < B_BL - W_BL / 2
     first = t < (B_BL - W_BL / 2) / W0_BL  # until the first engagement
     assert np.all(free[first])
-    np.testing.assert_allclose(bl.torque[free], 0.0, atol=1e-15)
+    np.testing.assert_allclose(bl.torque[free], 0.0, atol=1e-15)  # exact: the dead band's gate and deflection are 0.0
     # The engagement is an event the model does not declare: outputs read from the dense output
     # of the step that crosses it carry the interpolant's O(h·Δq̈) error (7e-6 measured in the
     # last three outputs before it with 1e-2 s steps), so the exact speed is checked up to 2 ms before it.

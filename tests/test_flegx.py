@@ -348,6 +348,8 @@ def test_study_variants_are_the_group_system_with_other_parameters():
         v = rng.normal(size=own.params["v_init"].shape)
         for f, args in ((constraints, (q, 1.2)), (generalized_forces, (q, v, 1.2)), (mass_action, (q, v))):
             a, b = f(own, *args), f(applied, *args)
+            # bitwise: the same functions on equal parameters, in this process; apply() must
+            # rebuild exactly the variant's own system
             assert all(np.array_equal(x, y) for x, y in zip(jax.tree_util.tree_leaves(a), jax.tree_util.tree_leaves(b), strict=True))
         assert var.key_of(SimpleNamespace(system=applied)) == key
     assert len(var.table) > 3  # masses, inertias, poses and the PRBM constants really differ

@@ -151,6 +151,7 @@ def check_roundtrip(d):
         path.write_text(yaml.safe_dump(d, sort_keys=False))
         model, sim = load_model_file(path)
         assert [p.name for p in model.parts] == [p["name"] for p in d["parts"]]
+        # exact: a float written by yaml (repr) and parsed back is the same float on any machine
         np.testing.assert_allclose([p.mass for p in model.parts], [p["mass"] for p in d["parts"]], rtol=0, atol=0)
         out = dump_model(model, tmp / "back.yaml", simulate=sim)
         back, sim2 = load_model_file(out)

@@ -18,25 +18,30 @@ from proleg.drives import (
 )
 
 W = WormGear()
+EPS = np.finfo(float).eps
 
 
 def test_gear_train_power_flow():
+    # rel 1e-12 throughout: products and quotients of a few floats (a few ulp, no cancellation);
+    # a wrong branch (η instead of 1/η) is off by 50 %
     g = GearTrain(10.0, 0.8)
-    assert float(output_torque(g, 2.0, 1.0)) == pytest.approx(10 * 0.8 * 2.0, abs=1e-12)  # motor drives
-    assert float(output_torque(g, 2.0, -1.0)) == pytest.approx(10 / 0.8 * 2.0, abs=1e-12)  # back-driven
-    assert float(output_torque(g, -2.0, 1.0)) == pytest.approx(-10 / 0.8 * 2.0, abs=1e-12)
+    assert float(output_torque(g, 2.0, 1.0)) == pytest.approx(10 * 0.8 * 2.0, rel=1e-12)  # motor drives
+    assert float(output_torque(g, 2.0, -1.0)) == pytest.approx(10 / 0.8 * 2.0, rel=1e-12)  # back-driven
+    assert float(output_torque(g, -2.0, 1.0)) == pytest.approx(-10 / 0.8 * 2.0, rel=1e-12)
     # power balance: out power = η · in power (forward), in power = η · out power (backward)
     for tin, wout in ((2.0, 1.0), (2.0, -1.0), (-3.0, 0.5)):
         pin, pout = tin * 10 * wout, float(output_torque(g, tin, wout)) * wout
-        assert (pout / pin if pin > 0 else pin / pout) == pytest.approx(0.8, abs=1e-12)
-        assert float(input_torque(g, output_torque(g, tin, wout), wout)) == pytest.approx(tin, abs=1e-12)
+        assert (pout / pin if pin > 0 else pin / pout) == pytest.approx(0.8, rel=1e-12)
+        assert float(input_torque(g, output_torque(g, tin, wout), wout)) == pytest.approx(tin, rel=1e-12)
     # smooth variant: mean factor at zero speed, exact branches beyond speed_eps
-    assert float(output_torque(g, 1.0, 0.0, speed_eps=0.1)) == pytest.approx(5 * (0.8 + 1 / 0.8), abs=1e-12)
-    assert float(output_torque(g, 1.0, 0.2, speed_eps=0.1)) == pytest.approx(8.0, abs=1e-12)
+    assert float(output_torque(g, 1.0, 0.0, speed_eps=0.1)) == pytest.approx(5 * (0.8 + 1 / 0.8), rel=1e-12)
+    assert float(output_torque(g, 1.0, 0.2, speed_eps=0.1)) == pytest.approx(8.0, rel=1e-12)
     assert np.isfinite(float(jax.grad(output_torque, argnums=2)(g, 1.0, 0.0, 0.1)))
 
 
 def test_worm_geometry_seed002():
+    # Plain Python floats: IEEE + − × ÷ are correctly rounded on every CPU, and libm's tan/atan
+    # are within 1 ulp, so 1e-15 m (≥ 30 ulp of these 0.03 to 0.2 values) is round-off with margin.
     assert W.worm_pitch_diameter == pytest.approx(2 * 53e-3 - 29 * 2.5e-3, abs=1e-15)  # 33.5 mm
     assert W.worm_pitch_diameter == pytest.approx(33.5e-3, abs=1e-15)
     assert math.tan(W.lead_angle) == pytest.approx(3 * 2.5 / 33.5, abs=1e-15)
@@ -48,7 +53,8 @@ def test_worm_geometry_seed002():
 def test_worm_efficiency_eq16():
     f = 0.14
     cn, ta = math.cos(W.normal_pressure_angle), math.tan(W.lead_angle)
-    assert float(W.efficiency(f)) == pytest.approx((cn - f * ta) / (cn + f / ta), abs=1e-15)
+    # five flops on O(1) values, XLA against Python: a few ulp; 64 eps = 1.4e-14
+    assert float(W.efficiency(f)) == pytest.approx((cn - f * ta) / (cn + f / ta), abs=64 * EPS)
     assert float(W.efficiency(0.0)) == pytest.approx(1.0) and float(W.back_efficiency(0.0)) == pytest.approx(1.0)
     # traceable in f
     deta = jax.grad(W.efficiency)(f)
@@ -68,7 +74,8 @@ def test_friction_for_assumed_efficiency_060():
 def test_self_locking_boundary():
     f_star = math.cos(W.normal_pressure_angle) * math.tan(W.lead_angle)
     assert W.self_locking_friction == pytest.approx(f_star)
-    assert float(W.back_efficiency(f_star)) == pytest.approx(0.0, abs=1e-15)
+    # zero up to the cancellation cos γ_n tan γ − f* (operands ~0.2, each a few ulp apart in XLA)
+    assert float(W.back_efficiency(f_star)) == pytest.approx(0.0, abs=64 * EPS)
     assert float(W.back_efficiency(0.99 * f_star)) > 0 and float(W.back_efficiency(1.01 * f_star)) < 0
     assert not bool(W.is_self_locking(0.133)) and bool(W.is_self_locking(0.25))
     # with the paper's f the FLEGX worm is back-drivable, η_back < η
@@ -89,7 +96,7 @@ def test_backlash_dead_band_and_contact_law():
     np.testing.assert_array_equal(backlash_torque(th, 3.0, K, C, B), 0.0)  # no damping in the gap
     for t, v in ((1.5 * B, 0.7), (-2.0 * B, -0.3), (3 * B, -1.0)):
         expected = -K * (t - math.copysign(B, t)) - C * v
-        assert float(backlash_torque(t, v, K, C, B)) == pytest.approx(expected, abs=1e-12)
+        assert float(backlash_torque(t, v, K, C, B)) == pytest.approx(expected, rel=1e-12)  # 4 flops, |τ| ≥ 14 N m
 
 
 def test_smooth_backlash_matches_hard_law_outside_band_and_is_c1():
@@ -97,7 +104,8 @@ def test_smooth_backlash_matches_hard_law_outside_band_and_is_c1():
     ths = jnp.array([-3 * B, -(B + 0.6 * w), 0.0, 0.3 * B, B - 0.6 * w, B + 0.5 * w, 2 * B])
     hard = backlash_torque(ths, 0.4, K, C, B)
     smooth = backlash_torque_smooth(ths, 0.4, K, C, B, w)
-    np.testing.assert_allclose(smooth, hard, atol=1e-12)
+    # the same law outside the band, through other flops: 256 eps × the largest torque (28 N m)
+    np.testing.assert_allclose(smooth, hard, atol=256 * EPS * float(np.max(np.abs(hard))))
     dtau = jax.jit(jax.vmap(jax.grad(backlash_torque_smooth), in_axes=(0, None, None, None, None, None)))
     ends = jnp.array([B - 0.5 * w, B + 0.5 * w])
     h = 1e-9

@@ -37,6 +37,7 @@ def test_store_holds_the_returned_rows(tmp_path):
     files = sorted(p.name for p in store.iterdir())
     assert files == [f"part-{k:05d}.parquet" for k in range(4)]  # 20 outputs in chunks of 5
     back = read_store(system, store)
+    # bitwise: the stored floats are read back; no arithmetic in between
     np.testing.assert_array_equal(back.t, res.t)
     for a, b in [(back.q, res.q), (back.v, res.v), (back.w, res.w)]:
         np.testing.assert_array_equal(np.asarray(a), np.asarray(b))

@@ -109,7 +109,8 @@ def test_crba_rnea_match_projection(systems, name):
         np.testing.assert_allclose(v, Txd, rtol=0, atol=1e-12)
     p = rng.normal(size=(20, 4))
     p /= np.linalg.norm(p, axis=1, keepdims=True)
-    np.testing.assert_allclose(np.abs(np.sum(p_of_A(A_of_p(jnp.asarray(p))) * p, 1)), 1.0, atol=1e-14)
+    # round trip of unit quaternions through 3×3 matrices: ~20 flops on O(1) values and a sqrt, 64 eps
+    np.testing.assert_allclose(np.abs(np.sum(p_of_A(A_of_p(jnp.asarray(p))) * p, 1)), 1.0, atol=64 * np.finfo(float).eps)
 
 
 def _compare(system, t_end, pos_tol, vel_tol):

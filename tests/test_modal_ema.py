@@ -115,6 +115,8 @@ def test_stabilisation_diagram_and_auto_mac():
 
 
 def test_mac_closed_forms():
+    # exact: small integers, so every product and partial sum is representable in any order
+    # (BLAS kernel or not) and only the final quotient rounds; 1e-15 is a few ulp at most
     a = np.array([1.0, 2.0, 3.0])
     assert mac(a, 2 * a)[0, 0] == pytest.approx(1.0, abs=1e-15)
     assert mac(a, np.array([3.0, 0.0, -1.0]))[0, 0] == pytest.approx(0.0, abs=1e-15)

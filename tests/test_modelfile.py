@@ -14,6 +14,10 @@ from proleg.model.joints import Cylindrical, Fixed, Planar, Prismatic, Revolute,
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 DOUBLE_PENDULUM = EXAMPLES / "double_pendulum.yaml"
 FOUR_BAR = EXAMPLES / "four_bar.yaml"
+# Round-off of marker poses (rotations, 3×3 products through BLAS, sin/cos of libm): 64 eps ×
+# 1 m, the size of these models (1.4e-14 m; ~30 ulp of their 0.1 to 2 m coordinates), and 64 eps
+# on unit vectors. A misplaced marker or a swapped axis is off by ≥ 1e-3.
+TOL = 64 * np.finfo(float).eps
 
 
 def _allclose_tree(a, b, atol=1e-12):
@@ -39,17 +43,18 @@ def test_double_pendulum_example():
     assert model.name == "double_pendulum"
     assert [p.name for p in model.parts] == ["upper", "lower"]
     assert [p.mass for p in model.parts] == [1.0, 1.0]
+    # exact: numbers parsed from the file, no arithmetic
     np.testing.assert_array_equal(model.part("lower").inertia, np.diag([0.01, 0.09, 0.09]))
     np.testing.assert_array_equal(model.gravity, [0, 0, -9.81])
     assert [type(j) for j in model.joints] == [Revolute, Revolute]
     elbow = model.joint("elbow")
-    np.testing.assert_allclose(elbow.marker_i.position, [1, 0, 0], atol=1e-15)
-    np.testing.assert_allclose(elbow.marker_j.position, [1, 0, 0], atol=1e-15)
+    np.testing.assert_allclose(elbow.marker_i.position, [1, 0, 0], atol=TOL)
+    np.testing.assert_allclose(elbow.marker_j.position, [1, 0, 0], atol=TOL)
     spring = model.force("spring")
     assert isinstance(spring, SpringDamper)
     assert (spring.stiffness, spring.damping, spring.free_length) == (50.0, 0.5, 1.0)
     # The spring starts at its free length: tip (2, 0, 0) to anchor (2, 0, -1).
-    assert np.linalg.norm(spring.i.position - spring.j.position) == pytest.approx(1.0, abs=1e-15)
+    assert np.linalg.norm(spring.i.position - spring.j.position) == pytest.approx(1.0, abs=TOL)
     assert sim == {"t_end": 2.0, "dt_output": 0.001}
     assert load_model(DOUBLE_PENDULUM).name == "double_pendulum"
 
@@ -62,13 +67,13 @@ def test_four_bar_example_closes_at_modelled_pose():
         np.testing.assert_allclose(j.axis, [0, 1, 0])
     at = {j.name: j.at for j in model.joints}
     links = {"crank": ("A", "B", 0.1), "coupler": ("B", "C", 0.35), "rocker": ("D", "C", 0.3)}
-    # Link lengths from the joint positions, ground link included; 1e-15 m is round-off.
-    assert np.linalg.norm(at["D"] - at["A"]) == pytest.approx(0.4, abs=1e-15)
+    # Link lengths from the joint positions, ground link included, to round-off (TOL).
+    assert np.linalg.norm(at["D"] - at["A"]) == pytest.approx(0.4, abs=TOL)
     for name, (a, b, length) in links.items():
         part = model.part(name)
-        assert np.linalg.norm(at[b] - at[a]) == pytest.approx(length, abs=1e-15)
-        assert part.mass == pytest.approx(1.0 * length, rel=1e-15)  # 1 kg/m
-        np.testing.assert_allclose(part.position, (at[a] + at[b]) / 2, atol=1e-15)  # COM at midpoint
+        assert np.linalg.norm(at[b] - at[a]) == pytest.approx(length, abs=TOL)
+        assert part.mass == pytest.approx(1.0 * length, rel=TOL)  # 1 kg/m
+        np.testing.assert_allclose(part.position, (at[a] + at[b]) / 2, atol=TOL)  # COM at midpoint
         # Slender rod about the COM, part x along the link: Iyy = Izz = m L^2 / 12.
         np.testing.assert_allclose(np.diag(part.inertia)[1:], part.mass * length**2 / 12, rtol=1e-12)
         # Both joint markers sit on the part's x axis at ±L/2: the orientation matches the link.
@@ -76,12 +81,12 @@ def test_four_bar_example_closes_at_modelled_pose():
             (m.local_position for m in model.markers if m.part is part and m.name[-2:] in (".I", ".J")),
             key=lambda p: p[0],
         )
-        np.testing.assert_allclose(local, [[-length / 2, 0, 0], [length / 2, 0, 0]], atol=1e-15)
+        np.testing.assert_allclose(local, [[-length / 2, 0, 0], [length / 2, 0, 0]], atol=TOL)
     # Each pin: the I and J markers coincide and their z axes are both along the pin.
     for j in model.joints:
-        np.testing.assert_allclose(j.marker_i.position, j.marker_j.position, atol=1e-15)
-        np.testing.assert_allclose(j.marker_i.orientation[:, 2], [0, 1, 0], atol=1e-15)
-        np.testing.assert_allclose(j.marker_j.orientation[:, 2], [0, 1, 0], atol=1e-15)
+        np.testing.assert_allclose(j.marker_i.position, j.marker_j.position, atol=TOL)
+        np.testing.assert_allclose(j.marker_i.orientation[:, 2], [0, 1, 0], atol=TOL)
+        np.testing.assert_allclose(j.marker_j.orientation[:, 2], [0, 1, 0], atol=TOL)
 
 
 # -- every element type, and the round trip -------------------------------------------------------
@@ -139,7 +144,7 @@ def test_every_element_type_builds():
     np.testing.assert_array_equal(bu.stiffness, np.diag([1e5, 1e5, 1e5, 10, 10, 10]))
     assert bu.damping[0, 1] == 0.01
     b = model.part("b")
-    np.testing.assert_allclose(b.orientation[:, 0], [np.cos(0.3), np.sin(0.3), 0], atol=1e-15)  # 0.3 rad about z
+    np.testing.assert_allclose(b.orientation[:, 0], [np.cos(0.3), np.sin(0.3), 0], atol=TOL)  # 0.3 rad about z
     np.testing.assert_array_equal(b.velocity, [0.1, 0, 0])
     assert model.force("twist").marker is model.marker("mb")
 

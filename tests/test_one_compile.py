@@ -53,4 +53,6 @@ def test_lazy_outputs_give_the_same_table(system):
     assert lazy._compiled_post is None
     b = lazy.to_frame()
     assert list(a.columns) == list(b.columns)
+    # bitwise: the same run executable, and the same post-processing program (post_batch),
+    # compiled ahead or on first access; identity is what is tested
     np.testing.assert_array_equal(a.to_numpy(), b.to_numpy())

@@ -37,6 +37,8 @@ def test_old_keywords_warn_and_give_the_same_run(system, old, new, place):
         warnings.simplefilter("error", DeprecationWarning)
         b = pl.simulate(system, 0.1, 0.01, progress=False, **new)
     assert a.stats == b.stats
+    # bitwise: both spellings build the same integrator, so the same executable runs twice in one
+    # process; identity is what is tested
     np.testing.assert_array_equal(np.asarray(a.q), np.asarray(b.q))
     assert a.integrator == b.integrator
 

@@ -26,6 +26,8 @@ def test_a_grid_of_a_function_equals_the_calls_and_resumes(tmp_path):
     tab = st.run(design="grid", n=4, executor="local", store=tmp_path / "s", progress=False)
     assert len(tab) == 16 and (tab["status"] == "success").all()
     for row in tab.to_dict("records"):
+        # the same Python function on the same stored floats in this process: equal up to a
+        # float32 column or a lossy store, which is what 1e-14 would catch; no BLAS involved
         assert row["f"] == pytest.approx(branin(row["x1"], row["x2"])["f"], rel=1e-14)
     ran = []
     tab2 = st.run(design="grid", n=4, executor="local", store=tmp_path / "s", progress=False, on_batch=ran.extend)

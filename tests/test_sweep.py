@@ -99,11 +99,15 @@ def test_lane_by_lane_lu_equals_the_batched_lu():
     b = jnp.asarray(np.random.default_rng(2).normal(size=(5, 7)))
     lu1, p1 = jax.vmap(lu_factors)(J)
     lu2, p2 = jax.jit(jax.vmap(lu_factors_per_lane))(J)
+    # bitwise: both paths call the same LAPACK getrf on the same 7 × 7 matrices in this process;
+    # that the per-lane path leaves the factors untouched is what is tested
     np.testing.assert_array_equal(lu1, lu2)
     np.testing.assert_array_equal(p1, p2)
     x = jax.vmap(lu_apply)((lu2, p2), b)
-    np.testing.assert_allclose(jnp.einsum("bij,bj->bi", J, x), b, atol=1e-12)
-    lu3, _ = lu_factors_per_lane(J[0])  # unbatched: the plain factors
+    # backward-stable solve: residual ≤ 64 eps n ‖J‖ ‖x‖ per lane (random J, so ‖x‖ varies)
+    scale = np.max(np.linalg.norm(np.asarray(J), 2, axis=(1, 2)) * np.linalg.norm(np.asarray(x), axis=1))
+    np.testing.assert_allclose(jnp.einsum("bij,bj->bi", J, x), b, atol=64 * np.finfo(float).eps * 7 * scale)
+    lu3, _ = lu_factors_per_lane(J[0])  # unbatched: the plain factors (bitwise, as above)
     np.testing.assert_array_equal(lu3, lu1[0])
 
 
@@ -119,7 +123,8 @@ def test_gpu_lowering_factors_square_matrices():
 
     J = jnp.asarray(np.random.default_rng(3).normal(size=(8, 5, 5)))
     for a, b in zip(jax.vmap(_lu_factors_augmented)(J), jax.vmap(_lu_factors_square)(J)):
-        np.testing.assert_allclose(a, b, rtol=0, atol=1e-13)
+        # two getrf calls on differently shaped operands may round apart: 64 eps n × max |factor|
+        np.testing.assert_allclose(a, b, rtol=0, atol=64 * np.finfo(float).eps * 5 * float(np.max(np.abs(np.asarray(b)))))
 
     def getrf_operands(platform):
         try:
@@ -168,6 +173,7 @@ def test_a_single_run_is_placed_on_the_cpu(system, monkeypatch):
     monkeypatch.undo()
     a = pl.simulate(system, **KW)
     b = pl.simulate(system, device="cpu", **KW)
+    # bitwise: untraced simulations run on the CPU anyway, so the same executable runs twice
     np.testing.assert_array_equal(np.asarray(a.q), np.asarray(b.q))
     with pytest.raises(ValueError, match="device='nosuch'"):
         pl.simulate(system, device="nosuch", **KW)
