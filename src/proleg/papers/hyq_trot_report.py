@@ -117,9 +117,9 @@ def run_trot(out_dir="results/hyq-trot", progress: bool = True, *, speed: float 
     plt.close(fig)
     bal = {
         "drawn from the supply [J]": h["hydraulic_energy"], "valve throttling loss [J]": h["valve_loss"],
-        "leakage loss [J]": h["leakage_loss"], "change of oil compression energy [J]": h["compression_energy_change"],
+        "relief valve loss [J]": h["relief_loss"], "leakage loss [J]": h["leakage_loss"], "change of oil compression energy [J]": h["compression_energy_change"],
         "cylinder work on the joints [J]": h["cylinder_work_on_joints"],
-        "residual (drawn − the four above) [J]": h["energy_residual"],
+        "residual (drawn − the five above) [J]": h["energy_residual"],
         "residual / drawn [%]": 100 * h["energy_residual"] / h["hydraulic_energy"],
         "positive joint work, all 12 joints [J]": h["mechanical_energy"],
         "peak / mean pump flow [l/min]": f"{h['peak_supply_flow'] * 6e4:.2f} / {h['mean_supply_flow'] * 6e4:.2f}",

@@ -177,8 +177,10 @@ def hyq_trot(speed: float = 1.0, t_end: float = 8.0, actuators: str = "hydraulic
 def trot_metrics(run: TrotRun) -> dict:
     """forward_speed (mean over the last half) [m/s], base_height_min [m], fell, max_joint_torque
     [N m], cost_of_transport (hydraulic: energy drawn; torque: positive joint work, per m g d),
-    supply_pressure, max_chamber_pressure, min_chamber_pressure [Pa], hydraulic_energy,
-    mechanical_energy (positive joint work), valve_loss, energy_residual [J], stats."""
+    supply_pressure, max_chamber_pressure, min_chamber_pressure, relief_setting [Pa],
+    hydraulic_energy, mechanical_energy (positive joint work), valve_loss, relief_loss,
+    energy_residual (drawn − valve − relief − leakage − Δ oil compression − cylinder work on the
+    joints) [J], stats."""
     res = run.result
     model = res.system.topo.model
     info = model.trot
@@ -214,14 +216,16 @@ def trot_metrics(run: TrotRun) -> dict:
         drawn = float(out["energy_drawn"][-1].sum())
         valve = float(out["energy_valve_loss"][-1].sum())
         leak = float(out["energy_leakage"][-1].sum())
+        relief = float(out["energy_relief"][-1].sum())
         d_comp = float(out["compression_energy"][-1].sum() - out["compression_energy"][0].sum())
         w_joint = float(out["work_on_joint"][-1].sum())
         w_oil = float(out["work_oil_on_piston"][-1].sum())
         m.update(
             supply_pressure=float(out["supply"].pressure), max_chamber_pressure=float(max(pa.max(), pb.max())),
-            min_chamber_pressure=float(min(pa.min(), pb.min())), hydraulic_energy=drawn, valve_loss=valve, leakage_loss=leak,
+            min_chamber_pressure=float(min(pa.min(), pb.min())), hydraulic_energy=drawn, valve_loss=valve, leakage_loss=leak, relief_loss=relief,
+            relief_setting=float(out["relief"].cracking(out["supply"])), peak_relief_flow=float(out["relief_flow"].sum(1).max()),
             compression_energy_change=d_comp, oil_work_on_pistons=w_oil, cylinder_work_on_joints=w_joint,
-            energy_residual=drawn - valve - leak - d_comp - w_joint, cost_of_transport=drawn / (weight * dist),
+            energy_residual=drawn - valve - relief - leak - d_comp - w_joint, cost_of_transport=drawn / (weight * dist),
             mechanical_cost_of_transport=pos_work / (weight * dist),
             peak_supply_flow=float(out["supply_flow"].sum(1).max()), mean_supply_flow=float(np.mean(out["supply_flow"].sum(1))),
         )
