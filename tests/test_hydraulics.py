@@ -244,6 +244,28 @@ def test_pressure_force_loop_tracks_a_step():
     np.testing.assert_allclose(F[late], 1000.0, rtol=1e-2)
 
 
+def test_required_opening_is_the_steady_orifice_law():
+    """The sizing law against the valve itself: at the opening it returns, the steady pressures
+    p_A = p_s − (A_A ẋ/K_v u)², p_B = (A_B ẋ/K_v u)² pass exactly A_A ẋ and A_B ẋ through
+    :func:`valve_flows` (turbulent: Δp ≫ Δp_l) and balance the load F; at F = 0 and u = 1, the
+    free piston's speed."""
+    for v, F in ((0.2, 800.0), (-0.2, -500.0), (0.1, -1000.0)):
+        u = float(H.required_opening(CYL, VAL, SUP, v, F))
+        assert 0.1 < u < 1.0
+        c = (v / (VAL.flow_gain * u)) ** 2
+        if v > 0:
+            pa, pb = SUP.pressure - c * CYL.area_a**2, c * CYL.area_b**2
+        else:
+            pa, pb = c * CYL.area_a**2, SUP.pressure - c * CYL.area_b**2
+        assert pa * CYL.area_a - pb * CYL.area_b == pytest.approx(F, rel=1e-9)
+        f = H.valve_flows(VAL, jnp.sign(v) * u, pa, pb, SUP)
+        # the laminar smoothing changes the flow by (Δp_l/Δp)²/4 relative
+        assert float(f["qa"]) == pytest.approx(CYL.area_a * v, rel=2e-3) and float(f["qb"]) == pytest.approx(-CYL.area_b * v, rel=2e-3)
+    v_free = VAL.flow_gain * math.sqrt(CYL.area_a * SUP.pressure / (CYL.area_a**3 + CYL.area_b**3))
+    assert float(H.required_opening(CYL, VAL, SUP, v_free, 0.0)) == pytest.approx(1.0, rel=1e-12)
+    assert float(H.required_opening(CYL, VAL, SUP, 0.1, 1.01 * SUP.pressure * CYL.area_a)) == math.inf
+
+
 def test_hydraulic_servo_errors():
     with pytest.raises(ModelError, match="one actuator per joint"):
         hydraulic_servo("h", ["a", "b"], ["x"], lambda th: (th, th))

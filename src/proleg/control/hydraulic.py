@@ -16,7 +16,10 @@ cylinders (:mod:`proleg.drives.hydraulics`), each mounted on a joint through its
        u = k_F (F_ref − F) / F_max + k_v A ẋ / (K_v √(p_s/2)),    clipped to [−1, 1]
 
    (F_max = p_s A_A; ẋ = dx/dθ · θ̇ from the joint encoder rate; A = A_A extending,
-   A_B retracting: the flow the motion needs at a half-supply drop).
+   A_B retracting: the flow the motion needs at a half-supply drop). F_ref is first clipped to
+   the cylinder's static capacity [−(p_s − p_t) A_B, (p_s − p_t) A_A]: the loop never asks for
+   more than the supply can hold (the relief valves and the cavitation floor of
+   :mod:`proleg.drives.hydraulics` bound what a load can still impose).
 
 The rod force F(p_n) is held until the next sample, applied to the joint as the torque
 F · dx/dθ(θ_n) through an actuator the controller drives (a :class:`proleg.JointActuator` on the
@@ -139,6 +142,7 @@ def hydraulic_servo(
     aa, ab = cyl.area_a, cyl.area_b
     ps = sup.pressure
     f_max = ps * aa
+    f_max_ext, f_max_ret = (ps - sup.tank) * aa, (ps - sup.tank) * ab
     kv = val.flow_gain
     # initial pressures: the rod force F0 with p_A at mid supply (the null valve holds any pair)
     f0 = np.zeros(n) if initial_force is None else np.broadcast_to(np.asarray(initial_force, float), (n,))
@@ -175,7 +179,9 @@ def hydraulic_servo(
         tau_ref = g("torque_reference")
         if reference is not None:
             tau_ref = jnp.where(tick, jnp.asarray(reference(t, state, th, thd), jnp.float64) * jnp.ones(n), tau_ref)
-        f_ref = tau_ref / dxdth
+        # the loop never demands more than the supply can hold: F within [−(p_s − p_t) A_B, (p_s − p_t) A_A]
+        # (one chamber at supply, the other at tank: the actuator's static force capacity)
+        f_ref = jnp.clip(tau_ref / dxdth, -f_max_ret, f_max_ext)
         xdot = dxdth * thd
         area = jnp.where(xdot > 0, aa, ab)
         u = force_gain * (f_ref - F) / f_max + velocity_gain * area * xdot / (kv * math.sqrt(0.5 * ps))

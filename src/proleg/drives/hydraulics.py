@@ -77,7 +77,7 @@ import jax
 import jax.numpy as jnp
 
 __all__ = ["Cylinder", "ServoValve", "Supply", "ReliefValve", "orifice", "valve_flows", "relief_flow", "oil_pressure", "oil_state",
-           "chamber_rates", "integrate_chambers", "cylinder_force"]
+           "chamber_rates", "integrate_chambers", "cylinder_force", "required_opening"]
 
 LPM = 1e-3 / 60.0  # [m³/s] per l/min
 
@@ -314,6 +314,28 @@ def chamber_rates(cyl: Cylinder, valve: ServoValve, supply: Supply, x, xdot, xv,
     qrb = relief_flow(relief, supply, pb)[0] if relief is not None else 0.0
     b = cyl.bulk_modulus
     return b / va * (f["qa"] - cyl.area_a * xdot - ql - qra), b / vb * (f["qb"] + cyl.area_b * xdot + ql - qrb)
+
+
+def required_opening(cyl: Cylinder, valve: ServoValve, supply: Supply, xdot, force):
+    """The spool opening [-] that moves the piston at ẋ [m/s] against the rod force F [N] in
+    steady flow (turbulent orifices, no leakage): the valve-sizing law.
+
+    Extending (ẋ > 0): A_A ẋ = K_v u √(p_s − p_A), A_B ẋ = K_v u √(p_B − p_t) and
+    F = p_A A_A − p_B A_B give (ẋ/K_v u)² (A_A³ + A_B³) = D with D = p_s A_A − p_t A_B − F;
+    retracting: D = p_s A_B − p_t A_A + F. So
+
+        u = |ẋ| / K_v · √((A_A³ + A_B³) / D).
+
+    A value above 1: the valve cannot pass the flow the motion needs at that load (the motion is
+    flow-limited); D ≤ 0: the force exceeds the static capacity (returned as inf). At F = 0,
+    p_t = 0 and u = 1 this is the free piston's speed K_v √(A_A p_s/(A_A³ + A_B³)).
+    """
+    aa, ab = cyl.area_a, cyl.area_b
+    ps, pt = supply.pressure, supply.tank
+    xdot, force = jnp.asarray(xdot, jnp.float64), jnp.asarray(force, jnp.float64)
+    d = jnp.where(xdot >= 0, ps * aa - pt * ab - force, ps * ab - pt * aa + force)
+    u = jnp.abs(xdot) * jnp.sqrt((aa**3 + ab**3) / jnp.maximum(d, 1e-300)) / valve.flow_gain
+    return jnp.where(d > 0, u, jnp.inf)
 
 
 def cylinder_force(cyl: Cylinder, pa, pb):
