@@ -1,6 +1,7 @@
 """HyQ trot (issue 33): wall time, steps/s and where the time goes, both actuator variants.
 
     PYTHONPATH=src nice -n 5 python bench/hyq_trot.py [t_end=8.0] [variants=hydraulic,torque]
+    PYTHONPATH=src python bench/hyq_trot.py --from-report results/hyq-trot "note"   (timings of a report run)
 
 Prints a table and writes bench/results/hyq_trot.csv: per variant the simulated time, integrator
 steps, wall time of the first (compile included) run, steps/s, and the split assemble /
@@ -45,7 +46,30 @@ def main(t_end=8.0, variants=("hydraulic", "torque")):
     pd.DataFrame(rows).to_csv(out / "hyq_trot.csv", index=False)
 
 
+def from_report(report_dir, note="", t_end=8.0):
+    """Record the timings of a ``proleg run hyq-trot`` run (its metrics.csv: both variants ran side
+    by side in two threads, compile included) in bench/results/hyq_trot_report.csv."""
+    m = pd.read_csv(Path(report_dir) / "metrics.csv", index_col=0)
+    rows = []
+    for a in m.columns:
+        c = m[a]
+        sim = float(c["wall_s"])
+        rows.append({
+            "variant": a, "t_end [s]": t_end, "steps": int(float(c["steps"])),
+            "compile+simulate [s]": sim, "steps/s": float(c["steps"]) / sim, "simulated s per wall min": 60 * t_end / sim,
+            "forward_speed": float(c["forward_speed"]), "fell": c["fell"], "note": note,
+        })
+    df = pd.DataFrame(rows)
+    print(df.to_string(index=False))
+    out = Path(__file__).parent / "results"
+    out.mkdir(exist_ok=True)
+    df.to_csv(out / "hyq_trot_report.csv", index=False)
+
+
 if __name__ == "__main__":
+    if len(sys.argv) > 1 and sys.argv[1] == "--from-report":
+        from_report(sys.argv[2], sys.argv[3] if len(sys.argv) > 3 else "", float(sys.argv[4]) if len(sys.argv) > 4 else 8.0)
+        sys.exit()
     t_end = float(sys.argv[1]) if len(sys.argv) > 1 else 8.0
     variants = tuple(sys.argv[2].split(",")) if len(sys.argv) > 2 else ("hydraulic", "torque")
     main(t_end, variants)

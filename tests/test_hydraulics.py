@@ -97,6 +97,67 @@ def test_port_power_identity():
     assert np.all(np.asarray(f["loss"]) >= 0)
 
 
+REL = H.ReliefValve()
+
+
+def test_blocked_cylinder_pushed_past_relief_settles_at_the_relief_law():
+    """Valve closed, the piston driven into chamber A at v = 0.1 m/s (a load the spool cannot
+    relieve). Chamber A rises to the relief valve, which then passes the displaced flow: in
+    steady state Q_r = A_A v (mass), and on the linear override law p_A = p_r + A_A v / G_r + w_r/2
+    (p_r = 1.1 p_s). The relief's loss Q_r p_A equals the piston's power p_A A_A v. Chamber B,
+    expanding 10 MPa's worth of volume, sits on the cavitation floor (p_B = p_c = 0 exactly)."""
+    v, T, n = 0.1, 5e-3, 200
+    x0 = 0.04
+    x1 = x0 - v * T
+    ya, yb, xv, vv, acc = H.integrate_chambers(CYL, VAL, SUP, jnp.asarray([16e6]), jnp.asarray([8e6]), jnp.zeros(1), jnp.zeros(1),
+                                               jnp.zeros(1), jnp.asarray([x0]), jnp.asarray([x1]), T, n, relief=REL)
+    q = CYL.area_a * v
+    p_exact = REL.cracking(SUP) + q / REL.conductance + REL.width / 2
+    assert q / REL.conductance > REL.width  # on the linear part of the law
+    # steady state: the implicit step holds Q_r = V ln(V_k/V_k+1)/h = A v (1 + O(A v h / V)), 1e-3 here
+    assert float(acc["qra"][0]) == pytest.approx(q, rel=2e-3)
+    assert float(acc["pa"][0]) == pytest.approx(p_exact, rel=1e-5)
+    assert float(acc["pb"][0]) == CYL.cavitation_pressure and float(yb[0]) < CYL.cavitation_pressure - CYL.cavitation_width
+    # the relief dissipates the piston's work (over the last 1 ms, in steady state): Q_r p_A = p_A A_A v
+    ya2, yb2, _, _, acc2 = H.integrate_chambers(CYL, VAL, SUP, ya, yb, xv, vv, jnp.zeros(1), jnp.asarray([x1]),
+                                                jnp.asarray([x1 - v * 1e-3]), 1e-3, 40, relief=REL)
+    assert float(acc2["relief"][0]) == pytest.approx(-float(acc2["piston"][0]), rel=2e-3)
+    assert float(acc2["drawn"][0]) == 0.0  # tank at 0 gauge, valve closed
+    # without the relief the same push compresses the trapped oil far past the supply
+    _, _, _, _, acc3 = H.integrate_chambers(CYL, VAL, SUP, jnp.asarray([16e6]), jnp.asarray([8e6]), jnp.zeros(1), jnp.zeros(1),
+                                            jnp.zeros(1), jnp.asarray([x0]), jnp.asarray([x1]), T, n)
+    (va0, _), (va1, _) = CYL.volumes(x0), CYL.volumes(x1)
+    assert float(acc3["pa"][0]) == pytest.approx(16e6 + CYL.bulk_modulus * math.log(va0 / va1), rel=1e-12)
+    assert float(acc3["pa"][0]) > 1.5 * SUP.pressure
+
+
+def test_cavitation_floor_holds_and_the_cavity_collapses():
+    """Valve closed, the piston pulled 10 mm out of chamber A (2 MPa): the liquid-equivalent
+    pressure y = y_0 + β ln(V_0/V) (mass conservation, exact) goes to −200 MPa, but the pressure
+    stays at the floor p_c (no tension in the oil: a cavity); pushed back, the cavity collapses and the
+    pressure returns to 2 MPa exactly (chamber B, compressed and released, too: no relief here).
+    The floor law itself: continuous slope, inverse, and Φ' = P for the stored energy."""
+    x0, x1 = 0.04, 0.05
+    args = (CYL, VAL, SUP)
+    z = jnp.zeros(1)
+    ya, yb, _, _, acc = H.integrate_chambers(*args, jnp.asarray([2e6]), jnp.asarray([3e6]), z, z, z, jnp.asarray([x0]), jnp.asarray([x1]),
+                                             1e-3, 8)
+    (va0, _), (va1, _) = CYL.volumes(x0), CYL.volumes(x1)
+    assert float(ya[0]) == pytest.approx(2e6 + CYL.bulk_modulus * math.log(va0 / va1), rel=1e-12)
+    assert float(ya[0]) < -100e6 and float(acc["pa"][0]) == CYL.cavitation_pressure
+    ya2, yb2, _, _, acc2 = H.integrate_chambers(*args, ya, yb, z, z, z, jnp.asarray([x1]), jnp.asarray([x0]), 1e-3, 8)
+    assert float(acc2["pa"][0]) == pytest.approx(2e6, rel=1e-9) and float(acc2["pb"][0]) == pytest.approx(3e6, rel=1e-9)
+    # the floor law: P(P⁻¹(p)) = p above p_c, P' continuous, Φ' = P (the stored energy)
+    y = jnp.linspace(-3 * CYL.cavitation_width, 3 * CYL.cavitation_width, 601)
+    p, dp = H.oil_pressure(CYL, y)
+    assert float(p.min()) == CYL.cavitation_pressure and np.all(np.diff(np.asarray(p)) >= 0)
+    np.testing.assert_allclose(np.asarray(H.oil_pressure(CYL, H.oil_state(CYL, p[p > 0]))[0]), np.asarray(p[p > 0]), rtol=1e-12)
+    g = jax.vmap(jax.grad(lambda yy: H.oil_pressure(CYL, yy)[0]))(y)
+    np.testing.assert_allclose(np.asarray(g), np.asarray(dp), atol=1e-12)
+    gphi = jax.vmap(jax.grad(lambda yy: H._phi(CYL, yy)))(y)
+    np.testing.assert_allclose(np.asarray(gphi), np.asarray(p), rtol=1e-12, atol=1e-9)
+
+
 # ---------------------------------------------------------------------------------------------
 M_PISTON, X_START, XV = 50.0, 0.01, 0.2
 
@@ -183,11 +244,35 @@ def test_pressure_force_loop_tracks_a_step():
     np.testing.assert_allclose(F[late], 1000.0, rtol=1e-2)
 
 
+def test_required_opening_is_the_steady_orifice_law():
+    """The sizing law against the valve itself: at the opening it returns, the steady pressures
+    p_A = p_s − (A_A ẋ/K_v u)², p_B = (A_B ẋ/K_v u)² pass exactly A_A ẋ and A_B ẋ through
+    :func:`valve_flows` (turbulent: Δp ≫ Δp_l) and balance the load F; at F = 0 and u = 1, the
+    free piston's speed."""
+    for v, F in ((0.2, 800.0), (-0.2, -500.0), (0.1, -1000.0)):
+        u = float(H.required_opening(CYL, VAL, SUP, v, F))
+        assert 0.1 < u < 1.0
+        c = (v / (VAL.flow_gain * u)) ** 2
+        if v > 0:
+            pa, pb = SUP.pressure - c * CYL.area_a**2, c * CYL.area_b**2
+        else:
+            pa, pb = c * CYL.area_a**2, SUP.pressure - c * CYL.area_b**2
+        assert pa * CYL.area_a - pb * CYL.area_b == pytest.approx(F, rel=1e-9)
+        f = H.valve_flows(VAL, jnp.sign(v) * u, pa, pb, SUP)
+        # the laminar smoothing changes the flow by (Δp_l/Δp)²/4 relative
+        assert float(f["qa"]) == pytest.approx(CYL.area_a * v, rel=2e-3) and float(f["qb"]) == pytest.approx(-CYL.area_b * v, rel=2e-3)
+    v_free = VAL.flow_gain * math.sqrt(CYL.area_a * SUP.pressure / (CYL.area_a**3 + CYL.area_b**3))
+    assert float(H.required_opening(CYL, VAL, SUP, v_free, 0.0)) == pytest.approx(1.0, rel=1e-12)
+    assert float(H.required_opening(CYL, VAL, SUP, 0.1, 1.01 * SUP.pressure * CYL.area_a)) == math.inf
+
+
 def test_hydraulic_servo_errors():
     with pytest.raises(ModelError, match="one actuator per joint"):
         hydraulic_servo("h", ["a", "b"], ["x"], lambda th: (th, th))
     with pytest.raises(ModelError, match="whole multiple"):
         hydraulic_servo("h", ["a"], ["x"], lambda th: (th, th), period=1e-3, outer_period=2.5e-3)
+    with pytest.raises(ModelError, match="relief cracking_ratio"):
+        hydraulic_servo("h", ["a"], ["x"], lambda th: (th, th), relief=H.ReliefValve(cracking_ratio=0.9))
 
 
 @pytest.mark.slow

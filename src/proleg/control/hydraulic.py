@@ -16,7 +16,10 @@ cylinders (:mod:`proleg.drives.hydraulics`), each mounted on a joint through its
        u = k_F (F_ref − F) / F_max + k_v A ẋ / (K_v √(p_s/2)),    clipped to [−1, 1]
 
    (F_max = p_s A_A; ẋ = dx/dθ · θ̇ from the joint encoder rate; A = A_A extending,
-   A_B retracting: the flow the motion needs at a half-supply drop).
+   A_B retracting: the flow the motion needs at a half-supply drop). F_ref is first clipped to
+   the cylinder's static capacity [−(p_s − p_t) A_B, (p_s − p_t) A_A]: the loop never asks for
+   more than the supply can hold (the relief valves and the cavitation floor of
+   :mod:`proleg.drives.hydraulics` bound what a load can still impose).
 
 The rod force F(p_n) is held until the next sample, applied to the joint as the torque
 F · dx/dθ(θ_n) through an actuator the controller drives (a :class:`proleg.JointActuator` on the
@@ -49,7 +52,7 @@ FIELDS = (
     "pressure_a", "pressure_b", "valve_position", "valve_rate", "piston_position", "valve_command", "torque_reference",
     "energy_drawn", "energy_valve_loss", "energy_leakage", "energy_port", "work_oil_on_piston", "work_on_joint",
     "mass_flow_a", "mass_flow_b", "flow_a", "flow_b", "supply_flow", "hydraulic_power", "valve_loss_power", "force",
-    "joint_coordinate", "measured_force",
+    "joint_coordinate", "measured_force", "oil_a", "oil_b", "energy_relief", "relief_flow",
 )
 _I = {k: i for i, k in enumerate(FIELDS)}
 
@@ -84,7 +87,7 @@ def pd_reference(joints, setpoint, kp, kd, feedforward=None):
 def hydraulic_servo(
     name, joints, actuators, piston, *, cylinder=None, valve=None, supply=None, reference=None,
     period=1e-3, outer_period=None, substeps=8, force_gain=0.4, velocity_gain=1.0, translation=False,
-    initial_force=None, x0=None, valve_command=None,
+    initial_force=None, x0=None, valve_command=None, relief=None,
 ):
     """One sampled controller owning the cylinders of ``joints`` (module docstring).
 
@@ -95,8 +98,9 @@ def hydraulic_servo(
         Prismatic/Cylindrical joint whose translation is the piston coordinate)
     actuators : list of n actuator names receiving the held torque (or force)
     piston : function θ (n,) → (x (n,) [m], dx/dθ (n,) [m/rad or -]): the lever geometry
-    cylinder, valve, supply : :class:`~proleg.drives.hydraulics.Cylinder`, ``ServoValve``,
-        ``Supply`` (defaults: HyQ's actuator class, see their docstrings)
+    cylinder, valve, supply, relief : :class:`~proleg.drives.hydraulics.Cylinder`, ``ServoValve``,
+        ``Supply``, ``ReliefValve`` (defaults: HyQ's actuator class, see their docstrings; the
+        cylinder carries the cavitation floor, the relief valves guard each chamber)
     reference : function (t, state, θ, θ̇) → τ_ref (n,) [N m or N], the outer joint law
         (:func:`pd_reference`); None: zero torque
     period : float [s], the inner force loop and valve command (HyQ: 1 kHz)
@@ -116,6 +120,13 @@ def hydraulic_servo(
     cyl = cylinder or H.Cylinder()
     val = valve or H.ServoValve()
     sup = supply or H.Supply()
+    rel = relief or H.ReliefValve()
+    if not rel.cracking_ratio > 1.0:
+        raise ModelError(f"hydraulic_servo '{name}': relief cracking_ratio {rel.cracking_ratio} must exceed 1 (the relief setting is "
+                         "above the supply pressure, else it bleeds the supply in normal operation); pass ReliefValve(cracking_ratio=1.1).")
+    if not cyl.cavitation_pressure < sup.pressure:
+        raise ModelError(f"hydraulic_servo '{name}': cylinder cavitation_pressure {cyl.cavitation_pressure} Pa must be below the supply "
+                         f"{sup.pressure} Pa (gauge; default 0).")
     joints, actuators = list(joints), list(actuators)
     n = len(joints)
     if n == 0 or len(actuators) != n:
@@ -131,6 +142,7 @@ def hydraulic_servo(
     aa, ab = cyl.area_a, cyl.area_b
     ps = sup.pressure
     f_max = ps * aa
+    f_max_ext, f_max_ret = (ps - sup.tank) * aa, (ps - sup.tank) * ab
     kv = val.flow_gain
     # initial pressures: the rod force F0 with p_A at mid supply (the null valve holds any pair)
     f0 = np.zeros(n) if initial_force is None else np.broadcast_to(np.asarray(initial_force, float), (n,))
@@ -138,6 +150,7 @@ def hydraulic_servo(
     pb0 = (pa0 * aa - f0) / ab
     z0 = np.zeros((len(FIELDS), n))
     z0[_I["pressure_a"]], z0[_I["pressure_b"]] = pa0, pb0
+    z0[_I["oil_a"]], z0[_I["oil_b"]] = np.asarray(H.oil_state(cyl, pa0)), np.asarray(H.oil_state(cyl, pb0))
     if x0 is not None:
         xs, _ = piston(jnp.asarray(np.broadcast_to(np.asarray(x0, float), (n,))))
         z0[_I["piston_position"]] = np.asarray(xs)
@@ -158,14 +171,17 @@ def hydraulic_servo(
         first = t < 0.5 * period
         x_prev = jnp.where(first, x, g("piston_position"))
         th_prev = jnp.where(first, th, g("joint_coordinate"))
-        pa, pb, xv, vv, acc = H.integrate_chambers(cyl, val, sup, g("pressure_a"), g("pressure_b"), g("valve_position"), g("valve_rate"),
-                                                   g("valve_command"), x_prev, x, period, substeps)
+        ya, yb, xv, vv, acc = H.integrate_chambers(cyl, val, sup, g("oil_a"), g("oil_b"), g("valve_position"), g("valve_rate"),
+                                                   g("valve_command"), x_prev, x, period, substeps, relief=rel)
+        pa, pb = acc["pa"], acc["pb"]
         F = H.cylinder_force(cyl, pa, pb)
         tick = first | (jnp.abs(t / outer - jnp.round(t / outer)) < 1e-7)
         tau_ref = g("torque_reference")
         if reference is not None:
             tau_ref = jnp.where(tick, jnp.asarray(reference(t, state, th, thd), jnp.float64) * jnp.ones(n), tau_ref)
-        f_ref = tau_ref / dxdth
+        # the loop never demands more than the supply can hold: F within [−(p_s − p_t) A_B, (p_s − p_t) A_A]
+        # (one chamber at supply, the other at tank: the actuator's static force capacity)
+        f_ref = jnp.clip(tau_ref / dxdth, -f_max_ret, f_max_ext)
         xdot = dxdth * thd
         area = jnp.where(xdot > 0, aa, ab)
         u = force_gain * (f_ref - F) / f_max + velocity_gain * area * xdot / (kv * math.sqrt(0.5 * ps))
@@ -176,9 +192,9 @@ def hydraulic_servo(
         # rate, the spool moving under u): a zero-order hold of F(t_n) would lag T/2 and feed
         # the oil-column mode energy (negative damping ≈ ω_h T/4); the midpoint hold is neutral
         xdot_now = dxdth * thd
-        pa_m, pb_m, *_ = H.integrate_chambers(cyl, val, sup, pa, pb, xv, vv, u, x, x + 0.5 * period * xdot_now, 0.5 * period,
-                                              max(1, substeps // 2))
-        F_hold = H.cylinder_force(cyl, pa_m, pb_m)
+        *_, acc_m = H.integrate_chambers(cyl, val, sup, ya, yb, xv, vv, u, x, x + 0.5 * period * xdot_now, 0.5 * period,
+                                         max(1, substeps // 2), relief=rel)
+        F_hold = H.cylinder_force(cyl, acc_m["pa"], acc_m["pb"])
         # work of the held output (F_{n−1} dx/dθ(θ_{n−1})) over the joint's travel
         w_joint = g("work_on_joint") + g("force") * piston(th_prev)[1] * (th - th_prev)
         new = {
@@ -190,19 +206,21 @@ def hydraulic_servo(
             "mass_flow_a": g("mass_flow_a") + acc["mass_a"], "mass_flow_b": g("mass_flow_b") + acc["mass_b"],
             "flow_a": acc["qa"], "flow_b": acc["qb"], "supply_flow": acc["qs"],
             "hydraulic_power": acc["drawn"] / period, "valve_loss_power": acc["loss"] / period, "force": F_hold, "measured_force": F,
-            "joint_coordinate": th,
+            "joint_coordinate": th, "oil_a": ya, "oil_b": yb, "energy_relief": g("energy_relief") + acc["relief"],
+            "relief_flow": acc["qra"] + acc["qrb"],
         }
         z_new = jnp.concatenate([new[k] * jnp.ones(n) for k in FIELDS])
         return z_new, {a: F_hold[k] * dxdth[k] for k, a in enumerate(actuators)}
 
     ctrl = DiscreteController(name, update, z0.ravel(), actuators, period=period)
-    ctrl.hydraulic = dict(cylinder=cyl, valve=val, supply=sup, joints=joints, n=n, piston=piston, translation=translation)
+    ctrl.hydraulic = dict(cylinder=cyl, valve=val, supply=sup, relief=rel, joints=joints, n=n, piston=piston, translation=translation)
     return ctrl
 
 
 def hydraulic_outputs(result, name) -> dict:
     """The servo's hydraulic outputs at the output times: a dict of (nt, n) arrays, one per
-    :data:`FIELDS` entry, plus ``compression_energy`` [J] (Σ V p²/2β per cylinder),
+    :data:`FIELDS` entry, plus ``compression_energy`` [J] (Σ V Φ(y)/β per cylinder,
+    :func:`proleg.drives.hydraulics.compression_energy`),
     ``torque`` [N m] (the held output) and the element's ``cylinder``, ``valve``, ``supply``."""
     ctrl = None
     for g in result.system.topo.extensions:
@@ -217,7 +235,6 @@ def hydraulic_outputs(result, name) -> dict:
     out = {k: z[:, i] for i, k in enumerate(FIELDS)}
     out["torque"] = st[:, len(FIELDS) * n :]
     cyl = info["cylinder"]
-    va, vb = cyl.volumes(out["piston_position"])
-    out["compression_energy"] = (va * out["pressure_a"] ** 2 + vb * out["pressure_b"] ** 2) / (2 * cyl.bulk_modulus)
-    out.update(cylinder=cyl, valve=info["valve"], supply=info["supply"])
+    out["compression_energy"] = np.asarray(H.compression_energy(cyl, out["piston_position"], out["oil_a"], out["oil_b"]))
+    out.update(cylinder=cyl, valve=info["valve"], supply=info["supply"], relief=info.get("relief"))
     return out

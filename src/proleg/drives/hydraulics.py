@@ -37,8 +37,35 @@ Power (W, all ≥ 0 but the piston power):
     lost in leakage            P_L = Q_L (p_A − p_B)
     delivered to the chambers  p_A Q_A + p_B Q_B = P_s − P_v   (the port power)
 
-Cavitation is not modelled: a chamber pressure may fall below the tank pressure (then the
-result shows it; keep the supply and loads in the range where it does not).
+Cavitation floor (the oil cannot be stretched)
+----------------------------------------------
+Oil saturated with air at the vented tank's atmospheric pressure releases air (gaseous
+cavitation), and below its vapour pressure it boils (vaporous cavitation): a chamber that is
+expanded faster than the valve fills it does not go to large negative pressures, it forms a
+cavity at about the release pressure (Merritt 1967, §2.4; Manring, *Hydraulic Control Systems*,
+2005, §2.2; Simscape Fluids' isothermal liquid models the same by a pressure-dependent
+density below the vapour pressure). Choice here: an equation of state with a floor. Each
+chamber's state is its ln-mass, written as the *liquid-equivalent pressure*
+y = β (ln(m/ρ_0) − ln V) (the pressure the chamber would have if all its content were liquid:
+exactly the pressure above the floor), and the pressure is the C¹ smooth maximum
+
+    p = P(y) = y                          y ≥ p_c + w
+             = p_c + (y − p_c + w)²/(4w)  |y − p_c| < w
+             = p_c                        y ≤ p_c − w       (a cavity of volume V (1 − e^{(y−p_c)/β}))
+
+with p_c the cavitation pressure (default 0 Pa gauge: air release at atmospheric pressure, the
+tank's; a small absolute pressure could be set, −0.1 MPa gauge is absolute zero) and w a
+smoothing width. Mass is conserved exactly as before (y is the mass state); the cavity
+collapses when the chamber is refilled or compressed. The stored energy is V Φ(y)/β with
+Φ' = P (Φ = y²/2 above the floor: the constant-volume form V p²/2β), :func:`compression_energy`.
+
+Relief valves (the oil cannot be compressed without limit)
+----------------------------------------------------------
+A chamber trapped by the closed spool and driven by the load (a foot impact) would compress
+without bound; each chamber has a direct-acting relief valve to tank (:class:`ReliefValve`),
+cracking at p_r = r p_s with the linear flow–pressure (override) law of relief cartridges,
+Q_r = G_r ramp(p − p_r), G_r = Q_rN/Δp_o, ramp C¹ over a width w_r. Its throttling loss
+Q_r (p − p_t) is a term of the energy balance (``relief`` in :func:`integrate_chambers`).
 """
 
 from __future__ import annotations
@@ -49,7 +76,8 @@ import math
 import jax
 import jax.numpy as jnp
 
-__all__ = ["Cylinder", "ServoValve", "Supply", "orifice", "valve_flows", "chamber_rates", "integrate_chambers", "cylinder_force"]
+__all__ = ["Cylinder", "ServoValve", "Supply", "ReliefValve", "orifice", "valve_flows", "relief_flow", "oil_pressure", "oil_state",
+           "chamber_rates", "integrate_chambers", "cylinder_force", "required_opening"]
 
 LPM = 1e-3 / 60.0  # [m³/s] per l/min
 
@@ -76,6 +104,10 @@ class Cylinder:
     leakage : float [m³/(s Pa)]    C_L, internal leakage across the piston
     friction : float [N]           Coulomb seal friction (applied as a joint friction by the builders)
     viscous : float [N s/m]        viscous friction
+    cavitation_pressure : float [Pa]   p_c, the floor of the chamber pressure (gauge; default 0:
+        air release at the vented tank's atmospheric pressure; module docstring)
+    cavitation_width : float [Pa]  w, the smoothing width of the floor (default 50 kPa: 0.3 % of
+        the supply, a numerical choice; the floor is exact below p_c − w)
     """
 
     bore: float = 0.016
@@ -87,6 +119,8 @@ class Cylinder:
     leakage: float = 0.0
     friction: float = 20.0
     viscous: float = 200.0
+    cavitation_pressure: float = 0.0
+    cavitation_width: float = 5.0e4
 
     @property
     def area_a(self):
@@ -158,6 +192,44 @@ class Supply:
     tank: float = 0.0
 
 
+@jax.tree_util.register_dataclass
+@dataclasses.dataclass(frozen=True)
+class ReliefValve:
+    """Direct-acting pressure-relief valve from each chamber to tank (one per chamber).
+
+    Q_r = G_r ramp(p − p_r) [m³/s] out of the chamber, p_r = ``cracking_ratio`` · p_s,
+    G_r = ``rated_flow`` / ``override``; ramp(u) = 0 (u ≤ 0), u²/(2 w_r) (0 < u < w_r),
+    u − w_r/2 (u ≥ w_r): C¹, and exactly closed below the cracking pressure.
+
+    Defaults (**typical values of the class**, kept as parameters): set 10 % above the supply
+    (the usual margin of a relief over the working pressure, so that it never opens in normal
+    operation: e.g. Parr, *Hydraulics and Pneumatics*, 3rd ed. 2011, ch. 6; Eaton/Vickers
+    *Industrial Hydraulics Manual*, ch. 7); a small cartridge (10 l/min class) with a pressure
+    override of 2 MPa from cracking to its rated flow; w_r = 0.1 MPa (a smoothing choice).
+
+    Parameters
+    ----------
+    cracking_ratio : float [-]   p_r / p_s
+    rated_flow : float [m³/s]    Q_rN at p_r + Δp_o
+    override : float [Pa]        Δp_o
+    width : float [Pa]           w_r
+    """
+
+    cracking_ratio: float = 1.1
+    rated_flow: float = 10.0 * LPM
+    override: float = 2.0e6
+    width: float = 1.0e5
+
+    @property
+    def conductance(self):
+        """G_r = Q_rN / Δp_o [m³/(s Pa)]."""
+        return self.rated_flow / self.override
+
+    def cracking(self, supply):
+        """p_r [Pa] for ``supply``."""
+        return self.cracking_ratio * supply.pressure
+
+
 def orifice(dp, laminar_drop):
     """g(Δp) = Δp / (Δp² + Δp_l²)^¼ [√Pa]: the turbulent √Δp law made linear below Δp_l."""
     return dp / jnp.sqrt(jnp.sqrt(dp * dp + laminar_drop * laminar_drop))
@@ -167,6 +239,48 @@ def _dorifice(dp, laminar_drop):
     """g'(Δp) = (Δp²/2 + Δp_l²) / (Δp² + Δp_l²)^(5/4) [1/√Pa] (> 0)."""
     s = dp * dp + laminar_drop * laminar_drop
     return (0.5 * dp * dp + laminar_drop * laminar_drop) / (s * jnp.sqrt(jnp.sqrt(s)))
+
+
+def _ramp(u, w):
+    """C¹ ramp: 0 (u ≤ 0), u²/2w (0 < u < w), u − w/2 (u ≥ w); and its derivative."""
+    r = jnp.where(u <= 0.0, 0.0, jnp.where(u < w, 0.5 * u * u / w, u - 0.5 * w))
+    d = jnp.clip(u / w, 0.0, 1.0)
+    return r, d
+
+
+def relief_flow(relief: ReliefValve, supply: Supply, p):
+    """(Q_r, dQ_r/dp): the relief flow out of a chamber at pressure p [Pa] (:class:`ReliefValve`)."""
+    r, d = _ramp(p - relief.cracking(supply), relief.width)
+    g = relief.conductance
+    return g * r, g * d
+
+
+def oil_pressure(cyl: Cylinder, y):
+    """p = P(y) [Pa]: the chamber pressure of the liquid-equivalent pressure y (the floor law of
+    the module docstring), and dP/dy."""
+    a, w = cyl.cavitation_pressure, cyl.cavitation_width
+    u = y - a + w
+    mid = a + u * u / (4 * w)
+    p = jnp.where(y >= a + w, y, jnp.where(y <= a - w, a, mid))
+    d = jnp.clip(u / (2 * w), 0.0, 1.0)
+    return p, d
+
+
+def oil_state(cyl: Cylinder, p):
+    """y = P⁻¹(p) [Pa] for p above the floor (p ≤ p_c gives p_c − w, the onset of the cavity)."""
+    a, w = cyl.cavitation_pressure, cyl.cavitation_width
+    pn = jnp.asarray(p, jnp.float64) if not isinstance(p, (float, int)) else p
+    mid = a - w + 2.0 * jnp.sqrt(w * jnp.maximum(pn - a, 0.0))
+    return jnp.where(pn >= a + w, pn, mid)
+
+
+def _phi(cyl: Cylinder, y):
+    """Φ(y) [Pa²] with Φ' = P(y) and Φ = y²/2 above the floor (the stored-energy density × β)."""
+    a, w = cyl.cavitation_pressure, cyl.cavitation_width
+    c = 0.5 * (a + w) ** 2 - a * (a + w) - 2.0 * w * w / 3.0
+    yc = jnp.clip(y, a - w, a + w)
+    mid = c + a * yc + (yc - a + w) ** 3 / (12 * w)
+    return jnp.where(y >= a + w, 0.5 * y * y, mid + a * (y - yc))
 
 
 def valve_flows(valve: ServoValve, xv, pa, pb, supply: Supply):
@@ -188,13 +302,40 @@ def valve_flows(valve: ServoValve, xv, pa, pb, supply: Supply):
     return {"qa": q_pa - q_at, "qb": q_pb - q_bt, "qs": qs, "qt": qt, "loss": loss, "drawn": ps * qs - pt * qt}
 
 
-def chamber_rates(cyl: Cylinder, valve: ServoValve, supply: Supply, x, xdot, xv, pa, pb):
-    """(ṗ_A, ṗ_B) [Pa/s]: the pressure law of the module docstring."""
+def chamber_rates(cyl: Cylinder, valve: ServoValve, supply: Supply, x, xdot, xv, ya, yb, relief: ReliefValve | None = None):
+    """(ẏ_A, ẏ_B) [Pa/s] of the liquid-equivalent pressures (= ṗ above the cavitation floor): the
+    pressure law of the module docstring with the relief flows."""
+    pa, _ = oil_pressure(cyl, ya)
+    pb, _ = oil_pressure(cyl, yb)
     f = valve_flows(valve, xv, pa, pb, supply)
     va, vb = cyl.volumes(x)
     ql = cyl.leakage * (pa - pb)
+    qra = relief_flow(relief, supply, pa)[0] if relief is not None else 0.0
+    qrb = relief_flow(relief, supply, pb)[0] if relief is not None else 0.0
     b = cyl.bulk_modulus
-    return b / va * (f["qa"] - cyl.area_a * xdot - ql), b / vb * (f["qb"] + cyl.area_b * xdot + ql)
+    return b / va * (f["qa"] - cyl.area_a * xdot - ql - qra), b / vb * (f["qb"] + cyl.area_b * xdot + ql - qrb)
+
+
+def required_opening(cyl: Cylinder, valve: ServoValve, supply: Supply, xdot, force):
+    """The spool opening [-] that moves the piston at ẋ [m/s] against the rod force F [N] in
+    steady flow (turbulent orifices, no leakage): the valve-sizing law.
+
+    Extending (ẋ > 0): A_A ẋ = K_v u √(p_s − p_A), A_B ẋ = K_v u √(p_B − p_t) and
+    F = p_A A_A − p_B A_B give (ẋ/K_v u)² (A_A³ + A_B³) = D with D = p_s A_A − p_t A_B − F;
+    retracting: D = p_s A_B − p_t A_A + F. So
+
+        u = |ẋ| / K_v · √((A_A³ + A_B³) / D).
+
+    A value above 1: the valve cannot pass the flow the motion needs at that load (the motion is
+    flow-limited); D ≤ 0: the force exceeds the static capacity (returned as inf). At F = 0,
+    p_t = 0 and u = 1 this is the free piston's speed K_v √(A_A p_s/(A_A³ + A_B³)).
+    """
+    aa, ab = cyl.area_a, cyl.area_b
+    ps, pt = supply.pressure, supply.tank
+    xdot, force = jnp.asarray(xdot, jnp.float64), jnp.asarray(force, jnp.float64)
+    d = jnp.where(xdot >= 0, ps * aa - pt * ab - force, ps * ab - pt * aa + force)
+    u = jnp.abs(xdot) * jnp.sqrt((aa**3 + ab**3) / jnp.maximum(d, 1e-300)) / valve.flow_gain
+    return jnp.where(d > 0, u, jnp.inf)
 
 
 def cylinder_force(cyl: Cylinder, pa, pb):
@@ -221,80 +362,105 @@ def spool_step(valve: ServoValve, xv, vv, u, h):
     return jnp.clip(xn, -1.0, 1.0), jnp.where(hit, 0.0, vn)
 
 
-def integrate_chambers(cyl: Cylinder, valve: ServoValve, supply: Supply, pa, pb, xv, vv, u, x0, x1, T, substeps: int = 8):
+def integrate_chambers(cyl: Cylinder, valve: ServoValve, supply: Supply, ya, yb, xv, vv, u, x0, x1, T, substeps: int = 8,
+                       relief: ReliefValve | None = None, newton: int = 4):
     """Advance the chambers and spool over [t, t + T] while the piston moves from x0 to x1.
 
-    The piston moves linearly in time over the interval (the mechanism's motion, known at the
-    end of a sample). Each of the ``substeps`` steps h = T/n advances the spool exactly
-    (:func:`spool_step`), then each chamber's ln-mass μ = ln V + p/β by implicit Euler,
+    ``ya``, ``yb`` [Pa] are the chambers' liquid-equivalent pressures (their mass states; equal to
+    the pressures above the cavitation floor, :func:`oil_pressure`). The piston moves linearly in
+    time over the interval (the mechanism's motion, known at the end of a sample). Each of the
+    ``substeps`` steps h = T/n advances the spool exactly (:func:`spool_step`), then each
+    chamber's ln-mass μ = ln V + y/β by implicit Euler,
 
-        μ_{k+1} = μ_k + h (Q(p_{k+1}) ∓ Q_L) / V_{k+1},   p = β (μ − ln V),
+        μ_{k+1} = μ_k + h (Q(p_{k+1}) ∓ Q_L − Q_r(p_{k+1})) / V_{k+1},   y = β (μ − ln V),  p = P(y),
 
-    (two Newton iterations on the scalar equation, from the explicit predictor), so mass is
-    conserved exactly by the volume change and to the solver tolerance by the flows.
+    (``newton`` iterations on the 2×2 system from the explicit predictor, analytic Jacobian), so
+    mass is conserved exactly by the volume change and to the solver tolerance by the flows.
+    ``relief``: the chambers' relief valves (None: none).
 
-    Returns (pa, pb, xv, vv, acc) with ``acc`` a dict of interval integrals [J or m³]:
-    ``drawn``, ``loss`` (valve), ``leak`` (leakage loss), ``port`` (∫ p_A Q_A + p_B Q_B),
-    ``piston`` (∫ p dV: the work the oil does on the piston, both chambers), ``mass_a``,
-    ``mass_b`` (the masses over ρ_0 the valve and leakage moved, m_k (e^{h Q/V} − 1) per
-    sub-step, → ∫ e^{p/β} Q dt), and the last flows ``qa, qb, qs, qt``.
+    Returns (ya, yb, xv, vv, acc) with ``acc`` a dict of interval integrals [J or m³]:
+    ``drawn`` (p_s Q_s − p_t Q_t, the relief's return flow included), ``loss`` (valve),
+    ``relief`` (Σ Q_r (p − p_t)), ``leak`` (leakage loss), ``port`` (∫ Σ p (Q − Q_r): the power into
+    the chambers, = drawn − loss − relief), ``piston`` (∫ p dV: the work the oil does on the
+    piston, both chambers), ``mass_a``, ``mass_b`` (the masses over ρ_0 the valve, leakage and
+    relief moved, m_k (e^{h Q/V} − 1) per sub-step, → ∫ e^{y/β} Q dt), the last flows
+    ``qa, qb, qs, qt, qra, qrb`` and the last pressures ``pa, pb``.
     """
     b = cyl.bulk_modulus
     kv, dl, ps, pt = valve.flow_gain, valve.laminar_drop, supply.pressure, supply.tank
     h = T / substeps
-    zero = jnp.zeros_like(pa)
-    acc = {k: zero for k in ("drawn", "loss", "leak", "port", "piston", "mass_a", "mass_b", "qa", "qb", "qs", "qt")}
+    zero = jnp.zeros_like(ya)
+    acc = {k: zero for k in ("drawn", "loss", "relief", "leak", "port", "piston", "mass_a", "mass_b", "qa", "qb", "qs", "qt", "qra", "qrb",
+                             "pa", "pb")}
+    cl = cyl.leakage
+
+    def rel(p):
+        if relief is None:
+            return zero, zero
+        return relief_flow(relief, supply, p)
+
     va, vb = cyl.volumes(x0)
     for k in range(substeps):
         xk1 = x0 + (x1 - x0) * (k + 1) / substeps
         xv, vv = spool_step(valve, xv, vv, u, h)
         va1, vb1 = cyl.volumes(xk1)
 
-        pa_k, pb_k = pa, pb
+        ya_k, yb_k = ya, yb
         # explicit predictor (the volume change enters exactly), then Newton on the 2×2 system
-        # (analytic Jacobian: each chamber's flow depends on its own pressure, leakage couples)
-        pa_n = pa_k + b * jnp.log(va / va1)
-        pb_n = pb_k + b * jnp.log(vb / vb1)
+        # (analytic Jacobian: each chamber's flows depend on its own pressure, leakage couples)
+        ya_n = ya_k + b * jnp.log(va / va1)
+        yb_n = yb_k + b * jnp.log(vb / vb1)
         ap, an = jnp.maximum(jnp.clip(xv, -1.0, 1.0), 0.0), jnp.maximum(-jnp.clip(xv, -1.0, 1.0), 0.0)
-        for _ in range(3):
+        ca, cb = h * b / va1, h * b / vb1
+        for _ in range(newton):
+            pa_n, dpa = oil_pressure(cyl, ya_n)
+            pb_n, dpb = oil_pressure(cyl, yb_n)
             f = valve_flows(valve, xv, pa_n, pb_n, supply)
-            ql = cyl.leakage * (pa_n - pb_n)
-            ra = pa_n - pa_k - b * jnp.log(va / va1) - h * b * (f["qa"] - ql) / va1
-            rb = pb_n - pb_k - b * jnp.log(vb / vb1) - h * b * (f["qb"] + ql) / vb1
+            ql = cl * (pa_n - pb_n)
+            qra, dqra = rel(pa_n)
+            qrb, dqrb = rel(pb_n)
+            ra = ya_n - ya_k - b * jnp.log(va / va1) - ca * (f["qa"] - ql - qra)
+            rb = yb_n - yb_k - b * jnp.log(vb / vb1) - cb * (f["qb"] + ql - qrb)
             dqa = -kv * (ap * _dorifice(ps - pa_n, dl) + an * _dorifice(pa_n - pt, dl))
             dqb = -kv * (an * _dorifice(ps - pb_n, dl) + ap * _dorifice(pb_n - pt, dl))
-            ca, cb = h * b / va1, h * b / vb1
-            j11 = 1.0 - ca * (dqa - cyl.leakage)
-            j12 = -ca * cyl.leakage
-            j21 = -cb * cyl.leakage
-            j22 = 1.0 - cb * (dqb - cyl.leakage)
+            j11 = 1.0 - ca * (dqa - cl - dqra) * dpa
+            j12 = -ca * cl * dpb
+            j21 = -cb * cl * dpa
+            j22 = 1.0 - cb * (dqb - cl - dqrb) * dpb
             det = j11 * j22 - j12 * j21
-            pa_n = pa_n - (j22 * ra - j12 * rb) / det
-            pb_n = pb_n - (j11 * rb - j21 * ra) / det
-        pa, pb = pa_n, pb_n
+            ya_n = ya_n - (j22 * ra - j12 * rb) / det
+            yb_n = yb_n - (j11 * rb - j21 * ra) / det
+        ya, yb = ya_n, yb_n
+        pa, _ = oil_pressure(cyl, ya)
+        pb, _ = oil_pressure(cyl, yb)
         f = valve_flows(valve, xv, pa, pb, supply)
-        ql = cyl.leakage * (pa - pb)
+        ql = cl * (pa - pb)
+        qra, _ = rel(pa)
+        qrb, _ = rel(pb)
         dva, dvb = va1 - va, vb1 - vb
-        acc["drawn"] = acc["drawn"] + h * f["drawn"]
+        acc["drawn"] = acc["drawn"] + h * (f["drawn"] - pt * (qra + qrb))
         acc["loss"] = acc["loss"] + h * f["loss"]
+        acc["relief"] = acc["relief"] + h * (qra * (pa - pt) + qrb * (pb - pt))
         acc["leak"] = acc["leak"] + h * ql * (pa - pb)
-        acc["port"] = acc["port"] + h * (pa * f["qa"] + pb * f["qb"])
+        acc["port"] = acc["port"] + h * (pa * (f["qa"] - qra) + pb * (f["qb"] - qrb))
         acc["piston"] = acc["piston"] + pa * dva + pb * dvb
-        # the mass the valve moved in this sub-step, m_k (e^{h Q/V} − 1) (→ h e^{p/β} Q as h → 0)
-        acc["mass_a"] = acc["mass_a"] + va * jnp.exp(pa_k / b) * jnp.expm1(h * (f["qa"] - ql) / va1)
-        acc["mass_b"] = acc["mass_b"] + vb * jnp.exp(pb_k / b) * jnp.expm1(h * (f["qb"] + ql) / vb1)
-        acc.update(qa=f["qa"], qb=f["qb"], qs=f["qs"], qt=f["qt"])
+        # the mass moved in this sub-step, m_k (e^{h Q/V} − 1) (→ h e^{y/β} Q as h → 0)
+        acc["mass_a"] = acc["mass_a"] + va * jnp.exp(ya_k / b) * jnp.expm1(h * (f["qa"] - ql - qra) / va1)
+        acc["mass_b"] = acc["mass_b"] + vb * jnp.exp(yb_k / b) * jnp.expm1(h * (f["qb"] + ql - qrb) / vb1)
+        acc.update(qa=f["qa"], qb=f["qb"], qs=f["qs"], qt=f["qt"] + qra + qrb, qra=qra, qrb=qrb, pa=pa, pb=pb)
         va, vb = va1, vb1
-    return pa, pb, xv, vv, acc
+    return ya, yb, xv, vv, acc
 
 
-def chamber_mass(cyl: Cylinder, x, pa, pb):
-    """(m_A, m_B)/ρ_0 = V e^{p/β} [m³]: the conserved chamber masses over the reference density."""
+def chamber_mass(cyl: Cylinder, x, ya, yb):
+    """(m_A, m_B)/ρ_0 = V e^{y/β} [m³]: the conserved chamber masses over the reference density
+    (y the liquid-equivalent pressures, = p above the cavitation floor)."""
     va, vb = cyl.volumes(x)
-    return va * jnp.exp(pa / cyl.bulk_modulus), vb * jnp.exp(pb / cyl.bulk_modulus)
+    return va * jnp.exp(ya / cyl.bulk_modulus), vb * jnp.exp(yb / cyl.bulk_modulus)
 
 
-def compression_energy(cyl: Cylinder, x, pa, pb):
-    """Σ V p²/(2β) [J]: the elastic energy stored in the compressed oil (constant-volume form)."""
+def compression_energy(cyl: Cylinder, x, ya, yb):
+    """Σ V Φ(y)/β [J]: the elastic energy stored in the compressed oil (constant-volume form;
+    V p²/2β above the cavitation floor, Φ' = P: a cavity stores p_c dV)."""
     va, vb = cyl.volumes(x)
-    return (va * pa * pa + vb * pb * pb) / (2.0 * cyl.bulk_modulus)
+    return (va * _phi(cyl, ya) + vb * _phi(cyl, yb)) / cyl.bulk_modulus

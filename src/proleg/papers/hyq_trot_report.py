@@ -43,9 +43,14 @@ def run_trot(out_dir="results/hyq-trot", progress: bool = True, *, speed: float 
     table = pd.DataFrame({a: r.metrics for a, r in runs.items()})
     table.to_csv(out / "metrics.csv")
     h, tq = runs["hydraulic"].metrics, runs["torque"].metrics
+    from ..robots.hyq_trot import flow_demand
+
+    ho = hydraulic_outputs(runs["hydraulic"].result, "cylinders")
+    fd = flow_demand(runs["torque"], ho["cylinder"], ho["valve"], ho["supply"])
     rep = Report(f"HyQ trots at {speed:g} m/s: hydraulic cylinders vs ideal torque sources",
                  f"proleg.robots.hyq_trot, {t_end:g} s simulated per variant; wall time (both in parallel, compile included) "
-                 f"hydraulic {h['wall_s']:.0f} s ({h['steps']} steps), torque {tq['wall_s']:.0f} s ({tq['steps']} steps)")
+                 f"hydraulic {h['wall_s']:.0f} s ({h['steps']} steps), torque {tq['wall_s']:.0f} s ({tq['steps']} steps), on a shared 2-core "
+                 f"machine at load average {os.getloadavg()[0]:.1f}")
     rep.add_text(
         f"The whole HyQ ({runs['hydraulic'].result.system.topo.nbody} parts from the URDF) trots with diagonal pairs "
         f"(stride {runs['hydraulic'].gait.period:g} s, duty factor {runs['hydraulic'].gait.duty:g}, step height "
@@ -55,7 +60,12 @@ def run_trot(out_dir="results/hyq-trot", progress: bool = True, *, speed: float 
         f"Mean forward speed over the last half: hydraulic {h['forward_speed']:.3f} m/s, torque sources {tq['forward_speed']:.3f} m/s "
         f"(command {speed:g}). Lowest trunk height {h['base_height_min']:.3f} / {tq['base_height_min']:.3f} m; largest joint torque "
         f"{h['max_joint_torque']:.1f} / {tq['max_joint_torque']:.1f} N m (rating {RATING:g}). Chamber pressures between "
-        f"{h['min_chamber_pressure'] / 1e6:.2f} and {h['max_chamber_pressure'] / 1e6:.2f} MPa. Cost of transport: hydraulic "
+        f"{h['min_chamber_pressure'] / 1e6:.2f} and {h['max_chamber_pressure'] / 1e6:.2f} MPa (supply {h['supply_pressure'] / 1e6:.1f} MPa; "
+        f"cavitation floor {ho['cylinder'].cavitation_pressure / 1e6:.1f} MPa; relief valves set at {h['relief_setting'] / 1e6:.1f} MPa "
+        f"passed at most {h['peak_relief_flow'] * 6e4:.3f} l/min and dissipated {h['relief_loss']:.2f} J). Servo valves "
+        f"{ho['valve'].rated_flow * 6e4:.1f} l/min at {ho['valve'].rated_drop / 1e6:.0f} MPa, sized from the torque-source trot's flow "
+        f"demand: its peak required opening {fd['peak'].max():.2f} of that valve ({fd['names'][int(np.argmax(fd['peak']))]}). "
+        f"Energy balance residual {100 * h['energy_residual'] / h['hydraulic_energy']:.3f} % of the energy drawn. Cost of transport: hydraulic "
         f"(energy drawn from the supply) {h['cost_of_transport']:.2f}, its positive joint work {h['mechanical_cost_of_transport']:.2f}; "
         f"torque sources (positive joint work) {tq['cost_of_transport']:.2f}."
     )
@@ -117,9 +127,9 @@ def run_trot(out_dir="results/hyq-trot", progress: bool = True, *, speed: float 
     plt.close(fig)
     bal = {
         "drawn from the supply [J]": h["hydraulic_energy"], "valve throttling loss [J]": h["valve_loss"],
-        "leakage loss [J]": h["leakage_loss"], "change of oil compression energy [J]": h["compression_energy_change"],
+        "relief valve loss [J]": h["relief_loss"], "leakage loss [J]": h["leakage_loss"], "change of oil compression energy [J]": h["compression_energy_change"],
         "cylinder work on the joints [J]": h["cylinder_work_on_joints"],
-        "residual (drawn − the four above) [J]": h["energy_residual"],
+        "residual (drawn − the five above) [J]": h["energy_residual"],
         "residual / drawn [%]": 100 * h["energy_residual"] / h["hydraulic_energy"],
         "positive joint work, all 12 joints [J]": h["mechanical_energy"],
         "peak / mean pump flow [l/min]": f"{h['peak_supply_flow'] * 6e4:.2f} / {h['mean_supply_flow'] * 6e4:.2f}",

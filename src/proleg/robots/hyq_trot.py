@@ -25,11 +25,11 @@ HyQ's pressure force loop (:func:`proleg.control.hydraulic.hydraulic_servo`, 1 k
 friction (20 N + 200 N s/m) acts as a continuous joint friction reflected through the lever arm
 at mid-stroke (0.045 m).
 
-Known limits (measured on this branch, issue 33 report): neither relief valves nor cavitation
-are modelled, so a chamber compressed by an impact with the valve nearly closed can exceed the
-supply and an expanding one can go below the tank (a 3 s hydraulic trot reached 28 MPa and
-−17 MPa after 2.2 s, with the gait degrading as the speed passed ~0.8 m/s); the energy balance
-closed to 0.04 % of the energy drawn.
+The valves are sized from the gait's flow demand (:data:`TROT_VALVE_FLOW`, 5.5 l/min at 7 MPa;
+:func:`flow_demand`); each chamber has a relief valve (1.1 p_s) and the oil a cavitation floor
+(:mod:`proleg.drives.hydraulics`). History (issue 33): with the 2.5 l/min valve and neither
+relief nor cavitation, a 3 s hydraulic trot was flow-limited in swing, lost the gait at ~2.2 s
+and reached 27 MPa and −16 MPa.
 """
 
 from __future__ import annotations
@@ -47,6 +47,14 @@ from . import hyq_data as D
 from .hyq import FOOT_RADIUS, LEGS
 
 JOINT_KINDS = ("haa", "hfe", "kfe")
+#: [m³/s] rated flow (at the 7 MPa catalogue drop) of the trot's servo valves: sized from the gait's
+#: flow demand (:func:`flow_demand` on the torque-source trot at 1.0 m/s, 4 s, second half): the
+#: hind KFE pistons need a peak opening of 2.2 of the 2.5 l/min E024-class default (99th
+#: percentile 1.56; front KFE 1.04, HFE ≤ 0.96), so a 2.5 × 2.2 = 5.5 l/min valve passes the
+#: trot's peak flow. With the 2.5 l/min valve the hydraulic trot is flow-limited in swing (the
+#: velocity feed-forward alone asks for openings up to 1.2) and lost the gait at ~2.2 s
+#: (issue 33 report). A design consequence, not a fit: kept a parameter (``valve=``).
+TROT_VALVE_FLOW = 5.5e-3 / 60.0
 RATING = 140.0  # [N m] seed 001: "The maximum joint torque for both the hydraulic actuators is about 140Nm"
 FALL_HEIGHT = 0.35  # [m] trunk below this: fallen (issue 33)
 
@@ -81,6 +89,34 @@ def piston_kinematics(names, stroke):
         return c - cmin + margin, jnp.asarray(sign) * dc
 
     return piston
+
+
+def flow_demand(run, cylinder=None, valve=None, supply=None, t_from=None):
+    """The valve opening the run's joint motion and torques would need on HyQ's cylinders.
+
+    For each HFE/KFE joint of a trot ``run`` (typically the torque-source one: the gait without
+    actuator limits) the piston speed ẋ = dx/dq q̇ and rod force F = τ/(dx/dq) at each output
+    time give the steady spool opening :func:`proleg.drives.hydraulics.required_opening`; above
+    1 the valve cannot pass the flow (flow-limited), inf: the force is beyond the supply.
+
+    Returns a dict: ``names`` (8,), ``t`` (nt,), ``opening`` (nt, 8) [-], ``peak`` (8,) and
+    ``p99`` (8,) over t ≥ ``t_from`` (default: the second half), and ``flow_limited_fraction``
+    (8,): the share of time above 1.
+    """
+    from ..drives import hydraulics as H
+
+    cyl, val, sup = cylinder or H.Cylinder(), valve or H.ServoValve(), supply or H.Supply()
+    res = run.result
+    names = [j for j in (f"{leg}_{k}_joint" for leg in LEGS for k in ("hfe", "kfe"))]
+    t = np.asarray(res.t)
+    q = np.stack([np.asarray(res.joint(n).angle) for n in names], 1)
+    tau = np.stack([np.asarray(res.actuator(f"{n}.drive")["effort"]) for n in names], 1)
+    x, dx = map(np.asarray, piston_kinematics(names, cyl.stroke)(jnp.asarray(q)))
+    xdot = np.gradient(x, t, axis=0)
+    u = np.asarray(H.required_opening(cyl, val, sup, xdot, tau / dx))
+    late = t >= (t[-1] / 2 if t_from is None else t_from)
+    return {"names": names, "t": t, "opening": u, "peak": u[late].max(0), "p99": np.percentile(u[late], 99, axis=0),
+            "flow_limited_fraction": (u[late] > 1).mean(0)}
 
 
 @dataclass
@@ -145,6 +181,7 @@ def hyq_trot_model(speed=1.0, actuators="hydraulic", *, gait: Trot | None = None
             tau = law(t, state)
             return jnp.stack([tau[n] for n in names])
 
+        valve = valve or H.ServoValve(rated_flow=TROT_VALVE_FLOW)
         hyd = hydraulic_servo("cylinders", names, [f"{n}.drive" for n in names], piston, cylinder=cyl, valve=valve, supply=supply,
                               reference=reference, period=servo_period, outer_period=law_period, x0=x0, force_gain=force_gain)
         model.add_controller(hyd)
@@ -177,8 +214,10 @@ def hyq_trot(speed: float = 1.0, t_end: float = 8.0, actuators: str = "hydraulic
 def trot_metrics(run: TrotRun) -> dict:
     """forward_speed (mean over the last half) [m/s], base_height_min [m], fell, max_joint_torque
     [N m], cost_of_transport (hydraulic: energy drawn; torque: positive joint work, per m g d),
-    supply_pressure, max_chamber_pressure, min_chamber_pressure [Pa], hydraulic_energy,
-    mechanical_energy (positive joint work), valve_loss, energy_residual [J], stats."""
+    supply_pressure, max_chamber_pressure, min_chamber_pressure, relief_setting [Pa],
+    hydraulic_energy, mechanical_energy (positive joint work), valve_loss, relief_loss,
+    energy_residual (drawn − valve − relief − leakage − Δ oil compression − cylinder work on the
+    joints) [J], stats."""
     res = run.result
     model = res.system.topo.model
     info = model.trot
@@ -214,14 +253,16 @@ def trot_metrics(run: TrotRun) -> dict:
         drawn = float(out["energy_drawn"][-1].sum())
         valve = float(out["energy_valve_loss"][-1].sum())
         leak = float(out["energy_leakage"][-1].sum())
+        relief = float(out["energy_relief"][-1].sum())
         d_comp = float(out["compression_energy"][-1].sum() - out["compression_energy"][0].sum())
         w_joint = float(out["work_on_joint"][-1].sum())
         w_oil = float(out["work_oil_on_piston"][-1].sum())
         m.update(
             supply_pressure=float(out["supply"].pressure), max_chamber_pressure=float(max(pa.max(), pb.max())),
-            min_chamber_pressure=float(min(pa.min(), pb.min())), hydraulic_energy=drawn, valve_loss=valve, leakage_loss=leak,
+            min_chamber_pressure=float(min(pa.min(), pb.min())), hydraulic_energy=drawn, valve_loss=valve, leakage_loss=leak, relief_loss=relief,
+            relief_setting=float(out["relief"].cracking(out["supply"])), peak_relief_flow=float(out["relief_flow"].sum(1).max()),
             compression_energy_change=d_comp, oil_work_on_pistons=w_oil, cylinder_work_on_joints=w_joint,
-            energy_residual=drawn - valve - leak - d_comp - w_joint, cost_of_transport=drawn / (weight * dist),
+            energy_residual=drawn - valve - relief - leak - d_comp - w_joint, cost_of_transport=drawn / (weight * dist),
             mechanical_cost_of_transport=pos_work / (weight * dist),
             peak_supply_flow=float(out["supply_flow"].sum(1).max()), mean_supply_flow=float(np.mean(out["supply_flow"].sum(1))),
         )
