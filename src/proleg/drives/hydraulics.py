@@ -277,7 +277,7 @@ def oil_pressure(cyl: Cylinder, y):
 def oil_state(cyl: Cylinder, p):
     """y = P⁻¹(p) [Pa] for p above the floor (p ≤ p_c gives p_c − w, the onset of the cavity)."""
     a, w = cyl.cavitation_pressure, cyl.cavitation_width
-    pn = jnp.asarray(p, jnp.float64) if not isinstance(p, (float, int)) else p
+    pn = jnp.asarray(p, jnp.float64)
     mid = a - w + 2.0 * jnp.sqrt(w * jnp.maximum(pn - a, 0.0))
     return jnp.where(pn >= a + w, pn, mid)
 
