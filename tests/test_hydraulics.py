@@ -266,6 +266,74 @@ def test_required_opening_is_the_steady_orifice_law():
     assert float(H.required_opening(CYL, VAL, SUP, 0.1, 1.01 * SUP.pressure * CYL.area_a)) == math.inf
 
 
+@pytest.mark.parametrize("compensation", ["load", "half_supply"])
+def test_force_loop_on_a_moving_piston_steady_error(compensation):
+    """The piston driven at v = 0.1 m/s by an imposed motion (smooth start over 20 ms) while the
+    loop holds F_ref = 1 kN. In steady state the valve passes exactly the flow of the motion,
+    so u = u_req(v, F) (:func:`required_opening`), and the proportional loop settles where
+    k_F (F_ref − F)/F_max + u_ff = u_req: with the load-compensated feed-forward u_ff = u_req(v,
+    F_ref), F = F_ref; with the half-supply form, F_ref − F = (u_req − u_half) F_max / k_F
+    (≈ +93 N here). Both against the closed form."""
+    v, tr, f_ref = 0.1, 0.02, 1000.0
+    model = pl.Model("piston", gravity=(0, 0, 0))
+    part = model.add_part("piston", M_PISTON, (0.1, 0.1, 0.1), (0, 0, 0))
+    model.add_joint(pl.Prismatic("slide", part, model.ground, at=(0, 0, 0), axis=(1, 0, 0)))
+    model.add_actuator(pl.JointActuator("rod", "slide"))
+    model.add_motion(pl.Motion("push", joint="slide", displacement=lambda t: jnp.where(t < tr, v * t * t / (2 * tr), v * (t - tr / 2)),
+                               breakpoints=(tr,)))
+    piston = lambda th: (th + X_START, jnp.ones_like(th))  # noqa: E731
+    model.add_controller(hydraulic_servo("cyl", ["slide"], ["rod"], piston, translation=True, x0=[0.0], compensation=compensation,
+                                         reference=lambda t, state, th, thd: f_ref * jnp.ones(1), initial_force=[f_ref]))
+    res = pl.simulate(pl.assemble(model), t_end=0.15, dt_output=1e-3, integrator=pl.GeneralizedAlpha())
+    out = hydraulic_outputs(res, "cyl")
+    late = res.t > 0.1
+    F = out["measured_force"][late, 0]
+    u_req = float(H.required_opening(CYL, VAL, SUP, v, F.mean()))
+    if compensation == "load":
+        np.testing.assert_allclose(F, f_ref, rtol=5e-3)
+    else:
+        u_half = CYL.area_a * v / (VAL.flow_gain * math.sqrt(SUP.pressure / 2))
+        predicted = f_ref - (u_req - u_half) * SUP.pressure * CYL.area_a / 0.4
+        assert abs(predicted - f_ref) > 50.0
+        np.testing.assert_allclose(F, predicted, rtol=5e-3)
+    np.testing.assert_allclose(out["valve_position"][late, 0], u_req, rtol=5e-3)
+
+
+@pytest.mark.parametrize("matched", [False, True])
+def test_overrunning_load_pressure_intensification(matched):
+    """The piston pushed in (v = −0.05 m/s, imposed) while the loop holds an extending 2.5 kN
+    (an overrunning load: a stance knee yielding). Steady orifice flows, A out to tank and
+    supply into B: with a symmetric spool p_A = A_A² (F + p_s A_B)/(A_A³ + A_B³) = 18.2 MPa, above
+    the 16 MPa supply (pressure intensification of the differential cylinder); with the spool
+    matched to the area ratio (α = A_B/A_A) p_A = (F + p_s A_B)/(A_A + A_B) and p_A + p_B = p_s."""
+    v, tr, f_ref = -0.05, 0.02, 2500.0
+    aa, ab, ps = CYL.area_a, CYL.area_b, SUP.pressure
+    val = H.ServoValve(port_ratio=ab / aa) if matched else VAL
+    model = pl.Model("piston", gravity=(0, 0, 0))
+    part = model.add_part("piston", M_PISTON, (0.1, 0.1, 0.1), (0, 0, 0))
+    model.add_joint(pl.Prismatic("slide", part, model.ground, at=(0, 0, 0), axis=(1, 0, 0)))
+    model.add_actuator(pl.JointActuator("rod", "slide"))
+    model.add_motion(pl.Motion("push", joint="slide", displacement=lambda t: jnp.where(t < tr, v * t * t / (2 * tr), v * (t - tr / 2)),
+                               breakpoints=(tr,)))
+    piston = lambda th: (th + 0.06, jnp.ones_like(th))  # noqa: E731
+    # the relief set out of the way (1.5 p_s) to show the intensification (at 1.1 p_s it opens and bleeds A)
+    model.add_controller(hydraulic_servo("cyl", ["slide"], ["rod"], piston, translation=True, x0=[0.0], valve=val,
+                                         relief=H.ReliefValve(cracking_ratio=1.5),
+                                         reference=lambda t, state, th, thd: f_ref * jnp.ones(1), initial_force=[f_ref]))
+    res = pl.simulate(pl.assemble(model), t_end=0.12, dt_output=1e-3, integrator=pl.GeneralizedAlpha())
+    out = hydraulic_outputs(res, "cyl")
+    late = res.t > 0.08
+    pa, pb = out["pressure_a"][late, 0], out["pressure_b"][late, 0]
+    np.testing.assert_allclose(out["measured_force"][late, 0], f_ref, rtol=5e-3)
+    if matched:
+        np.testing.assert_allclose(pa, (f_ref + ps * ab) / (aa + ab), rtol=5e-3)
+        np.testing.assert_allclose(pa + pb, ps, rtol=5e-3)
+        assert pa.max() < ps
+    else:
+        np.testing.assert_allclose(pa, aa**2 * (f_ref + ps * ab) / (aa**3 + ab**3), rtol=5e-3)
+        assert pa.min() > 1.1 * ps
+
+
 def test_hydraulic_servo_errors():
     with pytest.raises(ModelError, match="one actuator per joint"):
         hydraulic_servo("h", ["a", "b"], ["x"], lambda th: (th, th))

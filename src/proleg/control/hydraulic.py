@@ -13,10 +13,17 @@ cylinders (:mod:`proleg.drives.hydraulics`), each mounted on a joint through its
    of a hydraulic quadruped robot", ICRA 2012: a force loop on the load pressure with velocity
    compensation): F_ref = τ_ref / (dx/dθ), F = p_A A_A − p_B A_B and the valve command
 
-       u = k_F (F_ref − F) / F_max + k_v A ẋ / (K_v √(p_s/2)),    clipped to [−1, 1]
+       u = k_F (F_ref − F) / F_max + k_v sign(ẋ) u_ss(ẋ, F_ref),    clipped to [−1, 1]
 
-   (F_max = p_s A_A; ẋ = dx/dθ · θ̇ from the joint encoder rate; A = A_A extending,
-   A_B retracting: the flow the motion needs at a half-supply drop). F_ref is first clipped to
+   (F_max = p_s A_A; ẋ = dx/dθ · θ̇ from the joint encoder rate). The velocity compensation
+   u_ss is the opening that passes the flow the motion needs *at the demanded load*: the steady
+   orifice law of the valve and the asymmetric cylinder inverted,
+   :func:`proleg.drives.hydraulics.required_opening` (``compensation="load"``, the default).
+   ``compensation="half_supply"`` is the linearised form u_ss = A |ẋ| / (K_v √(p_s/2)) (A = A_A
+   extending, A_B retracting: the flow at a half-supply drop); it is exact only where the load
+   pressure is p_s/2, so a piston that moves under load (a stance leg sweeping back) leaves the
+   proportional loop a steady force error (k_F/F_max)⁻¹ × the opening mismatch: 10-15 N m at
+   HyQ's HFE in a 1 m/s trot, measured (issue 33), which the load form removes. F_ref is first clipped to
    the cylinder's static capacity [−(p_s − p_t) A_B, (p_s − p_t) A_A]: the loop never asks for
    more than the supply can hold (the relief valves and the cavitation floor of
    :mod:`proleg.drives.hydraulics` bound what a load can still impose).
@@ -87,7 +94,7 @@ def pd_reference(joints, setpoint, kp, kd, feedforward=None):
 def hydraulic_servo(
     name, joints, actuators, piston, *, cylinder=None, valve=None, supply=None, reference=None,
     period=1e-3, outer_period=None, substeps=8, force_gain=0.4, velocity_gain=1.0, translation=False,
-    initial_force=None, x0=None, valve_command=None, relief=None,
+    initial_force=None, x0=None, valve_command=None, relief=None, compensation="load",
 ):
     """One sampled controller owning the cylinders of ``joints`` (module docstring).
 
@@ -112,6 +119,7 @@ def hydraulic_servo(
         for the defaults at mid stroke; with the 1 ms sample and the 0.64 ms spool lag, k_F = 1
         overshoots a force step by ~40 %, 0.4 (≈ 65 Hz) stays within 15 %.
     velocity_gain : float [-], k_v (default 1: the full flow compensation; 0 disables it)
+    compensation : "load" (default) or "half_supply": the velocity compensation law (module docstring)
     initial_force : (n,) [N], rod forces at t = 0 (sets the initial pressures, default 0)
     x0 : (n,) initial joint coordinates (default: read at the first sample)
     valve_command : function t → (n,) spool command in [−1, 1], replacing the force loop (open
@@ -121,6 +129,8 @@ def hydraulic_servo(
     val = valve or H.ServoValve()
     sup = supply or H.Supply()
     rel = relief or H.ReliefValve()
+    if compensation not in ("load", "half_supply"):
+        raise ModelError(f"hydraulic_servo '{name}': compensation must be 'load' or 'half_supply', got {compensation!r}.")
     if not rel.cracking_ratio > 1.0:
         raise ModelError(f"hydraulic_servo '{name}': relief cracking_ratio {rel.cracking_ratio} must exceed 1 (the relief setting is "
                          "above the supply pressure, else it bleeds the supply in normal operation); pass ReliefValve(cracking_ratio=1.1).")
@@ -183,8 +193,11 @@ def hydraulic_servo(
         # (one chamber at supply, the other at tank: the actuator's static force capacity)
         f_ref = jnp.clip(tau_ref / dxdth, -f_max_ret, f_max_ext)
         xdot = dxdth * thd
-        area = jnp.where(xdot > 0, aa, ab)
-        u = force_gain * (f_ref - F) / f_max + velocity_gain * area * xdot / (kv * math.sqrt(0.5 * ps))
+        if compensation == "load":
+            u_ss = jnp.sign(xdot) * jnp.minimum(H.required_opening(cyl, val, sup, xdot, f_ref), 1.0)
+        else:
+            u_ss = jnp.where(xdot > 0, aa, ab) * xdot / (kv * math.sqrt(0.5 * ps))
+        u = force_gain * (f_ref - F) / f_max + velocity_gain * u_ss
         if valve_command is not None:
             u = jnp.asarray(valve_command(t), jnp.float64) * jnp.ones(n)
         u = jnp.clip(u, -1.0, 1.0)

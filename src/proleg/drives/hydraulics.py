@@ -161,6 +161,13 @@ class ServoValve:
     bandwidth : float [Hz]         spool: first order τ = 1/(2π f); second order ω_n = 2π f
     damping : float [-]            ζ of the second-order spool
     laminar_drop : float [Pa]      Δp_l of the regularised orifice law
+    port_ratio : float [-]         α, the B-port edges' (P→B, B→T) gain over the A-port edges'
+        (default 1: a symmetric spool). α = A_B/A_A is the spool matched to a differential
+        cylinder (Jelali & Kroll, *Hydraulic Servo-systems*, 2003, §3.4; offered by servo-valve
+        makers for differential cylinders): in steady motion both chambers then see the same
+        drop, so p_A + p_B = p_s and neither chamber exceeds the supply for any rod force within
+        the capacity, where a symmetric spool driving an overrunning load intensifies the
+        meter-out chamber past p_s once F > p_s (A_A + A_B³/A_A² − A_B) (Merritt 1967, §5).
     order : int (static), 1 or 2   spool dynamics
     """
 
@@ -169,6 +176,7 @@ class ServoValve:
     bandwidth: float = 250.0
     damping: float = 0.7
     laminar_drop: float = 1.0e5
+    port_ratio: float = 1.0
     order: int = dataclasses.field(default=1, metadata=dict(static=True))
 
     @property
@@ -269,7 +277,7 @@ def oil_pressure(cyl: Cylinder, y):
 def oil_state(cyl: Cylinder, p):
     """y = P⁻¹(p) [Pa] for p above the floor (p ≤ p_c gives p_c − w, the onset of the cavity)."""
     a, w = cyl.cavitation_pressure, cyl.cavitation_width
-    pn = jnp.asarray(p, jnp.float64) if not isinstance(p, (float, int)) else p
+    pn = jnp.asarray(p, jnp.float64)
     mid = a - w + 2.0 * jnp.sqrt(w * jnp.maximum(pn - a, 0.0))
     return jnp.where(pn >= a + w, pn, mid)
 
@@ -294,9 +302,9 @@ def valve_flows(valve: ServoValve, xv, pa, pb, supply: Supply):
     ps, pt = supply.pressure, supply.tank
     ap, an = jnp.maximum(xv, 0.0), jnp.maximum(-xv, 0.0)
     q_pa = kv * ap * orifice(ps - pa, dl)
-    q_bt = kv * ap * orifice(pb - pt, dl)
+    q_bt = kv * valve.port_ratio * ap * orifice(pb - pt, dl)
     q_at = kv * an * orifice(pa - pt, dl)
-    q_pb = kv * an * orifice(ps - pb, dl)
+    q_pb = kv * valve.port_ratio * an * orifice(ps - pb, dl)
     qs, qt = q_pa + q_pb, q_at + q_bt
     loss = q_pa * (ps - pa) + q_bt * (pb - pt) + q_at * (pa - pt) + q_pb * (ps - pb)
     return {"qa": q_pa - q_at, "qb": q_pb - q_bt, "qs": qs, "qt": qt, "loss": loss, "drawn": ps * qs - pt * qt}
@@ -320,11 +328,11 @@ def required_opening(cyl: Cylinder, valve: ServoValve, supply: Supply, xdot, for
     """The spool opening [-] that moves the piston at ẋ [m/s] against the rod force F [N] in
     steady flow (turbulent orifices, no leakage): the valve-sizing law.
 
-    Extending (ẋ > 0): A_A ẋ = K_v u √(p_s − p_A), A_B ẋ = K_v u √(p_B − p_t) and
-    F = p_A A_A − p_B A_B give (ẋ/K_v u)² (A_A³ + A_B³) = D with D = p_s A_A − p_t A_B − F;
-    retracting: D = p_s A_B − p_t A_A + F. So
+    Extending (ẋ > 0): A_A ẋ = K_v u √(p_s − p_A), A_B ẋ = α K_v u √(p_B − p_t) and
+    F = p_A A_A − p_B A_B give (ẋ/K_v u)² (A_A³ + A_B³/α²) = D with D = p_s A_A − p_t A_B − F;
+    retracting: D = p_s A_B − p_t A_A + F (α: ``valve.port_ratio``). So
 
-        u = |ẋ| / K_v · √((A_A³ + A_B³) / D).
+        u = |ẋ| / K_v · √((A_A³ + A_B³/α²) / D).
 
     A value above 1: the valve cannot pass the flow the motion needs at that load (the motion is
     flow-limited); D ≤ 0: the force exceeds the static capacity (returned as inf). At F = 0,
@@ -334,7 +342,7 @@ def required_opening(cyl: Cylinder, valve: ServoValve, supply: Supply, xdot, for
     ps, pt = supply.pressure, supply.tank
     xdot, force = jnp.asarray(xdot, jnp.float64), jnp.asarray(force, jnp.float64)
     d = jnp.where(xdot >= 0, ps * aa - pt * ab - force, ps * ab - pt * aa + force)
-    u = jnp.abs(xdot) * jnp.sqrt((aa**3 + ab**3) / jnp.maximum(d, 1e-300)) / valve.flow_gain
+    u = jnp.abs(xdot) * jnp.sqrt((aa**3 + ab**3 / valve.port_ratio**2) / jnp.maximum(d, 1e-300)) / valve.flow_gain
     return jnp.where(d > 0, u, jnp.inf)
 
 
@@ -422,7 +430,7 @@ def integrate_chambers(cyl: Cylinder, valve: ServoValve, supply: Supply, ya, yb,
             ra = ya_n - ya_k - b * jnp.log(va / va1) - ca * (f["qa"] - ql - qra)
             rb = yb_n - yb_k - b * jnp.log(vb / vb1) - cb * (f["qb"] + ql - qrb)
             dqa = -kv * (ap * _dorifice(ps - pa_n, dl) + an * _dorifice(pa_n - pt, dl))
-            dqb = -kv * (an * _dorifice(ps - pb_n, dl) + ap * _dorifice(pb_n - pt, dl))
+            dqb = -kv * valve.port_ratio * (an * _dorifice(ps - pb_n, dl) + ap * _dorifice(pb_n - pt, dl))
             j11 = 1.0 - ca * (dqa - cl - dqra) * dpa
             j12 = -ca * cl * dpb
             j21 = -cb * cl * dpa

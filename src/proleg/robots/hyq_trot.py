@@ -26,7 +26,7 @@ friction (20 N + 200 N s/m) acts as a continuous joint friction reflected throug
 at mid-stroke (0.045 m).
 
 The valves are sized from the gait's flow demand (:data:`TROT_VALVE_FLOW`, 5.5 l/min at 7 MPa;
-:func:`flow_demand`); each chamber has a relief valve (1.1 p_s) and the oil a cavitation floor
+:func:`flow_demand`), their spools matched to the cylinder area ratio; each chamber has a relief valve (1.1 p_s) and the oil a cavitation floor
 (:mod:`proleg.drives.hydraulics`). History (issue 33): with the 2.5 l/min valve and neither
 relief nor cavitation, a 3 s hydraulic trot was flow-limited in swing, lost the gait at ~2.2 s
 and reached 27 MPa and −16 MPa.
@@ -181,7 +181,10 @@ def hyq_trot_model(speed=1.0, actuators="hydraulic", *, gait: Trot | None = None
             tau = law(t, state)
             return jnp.stack([tau[n] for n in names])
 
-        valve = valve or H.ServoValve(rated_flow=TROT_VALVE_FLOW)
+        # the spool matched to the cylinder's area ratio: a symmetric one intensifies the
+        # meter-out chamber past the supply under the stance knees' overrunning loads (measured:
+        # 16.85 MPa at the front KFE on 16 MPa; ServoValve.port_ratio)
+        valve = valve or H.ServoValve(rated_flow=TROT_VALVE_FLOW, port_ratio=cyl.area_b / cyl.area_a)
         hyd = hydraulic_servo("cylinders", names, [f"{n}.drive" for n in names], piston, cylinder=cyl, valve=valve, supply=supply,
                               reference=reference, period=servo_period, outer_period=law_period, x0=x0, force_gain=force_gain)
         model.add_controller(hyd)
