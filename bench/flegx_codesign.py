@@ -29,7 +29,7 @@ COLS = ["configuration", "link_case", "total_mass_kg", "paper_mass_kg", "height_
 LAW = ["configuration", "link_case", "t_push_s", "extend_hip_deg", "extend_knee_deg", "stroke_hip_deg", "stroke_knee_deg",
        "speed_hip_dps", "speed_knee_dps", "take_off_s", "apex_s"]
 RUN = ["configuration", "link_case", "trials", "feasible_trials", "start_t_push_s", "start_height_mm", "ref_height_mm", "ref_feasible", "history_mm",
-       "converged", "polish_gain_mm", "best_generation", "stress_all_MPa", "peak_hip_all_Nm", "peak_knee_all_Nm"]
+       "converged", "polish_gain_mm", "cross_gain_mm", "best_generation", "apex_in_window", "takeoff_in_push", "stress_all_MPa", "peak_hip_all_Nm", "peak_knee_all_Nm"]
 
 
 def phases(configuration: int, t_push: float, t_after: float) -> str:
@@ -88,7 +88,8 @@ def main():
     for col in COLS + LAW + RUN:
         if col not in df:
             df[col] = float("nan")
-    kind = "push duration only (push_at_limits)" if a.push_only else f"CMA-ES over push and pose, {a.trials} trials, population {a.batch}"
+    kind = "push duration only (push_at_limits)" if a.push_only else (f"CMA-ES over push and pose, {a.trials} trials, population {a.batch}, "
+                                                                                   "started at the push-only optimum, polished along the push, cross-restarts")
     text = [f"# FLEGX Table I by co-design ({kind}; {a.link_model}; limits over the '{a.phase}' phase)", "",
             f"Wall {wall:.0f} s on a 2-core machine shared with other developers (load average, 1 min: {load0[0]:.1f} at start, "
             f"{load1[0]:.1f} at end); `python bench/flegx_codesign.py {' '.join(os.sys.argv[1:])}`.", "",

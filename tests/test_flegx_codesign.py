@@ -104,7 +104,7 @@ def test_law_shape_is_the_step_from_the_squat():
 
 def test_reduced_codesign_binds_and_beats_the_hand_law(tmp_path):
     space = {"law_t_push": (0.20, 0.32), "law_extend_knee": (30.0 * deg, 50.0 * deg)}
-    r = FC.optimise_law(4, 2, "prbm", space=space, n_trials=8, batch=4, start=4, reference={}, store=tmp_path)
+    r = FC.optimise_law(4, 2, "prbm", space=space, n_trials=8, batch=4, start=4, polish=4, reference={}, store=tmp_path)
     assert r["feasible"] and r["ref_feasible"]
     # the hand law (0.30 s to (−20°, 40°)) is within the limits and lower: the optimiser must find a faster push
     assert r["height_mm"] > 1.5 * r["ref_height_mm"], r
