@@ -186,6 +186,7 @@ def _row(full: dict, law: MotionLaw, space: dict, cons: dict, objective: str = O
            "peak_hip_Nm": full[h_c], "peak_knee_Nm": full[k_c],
            "stress_all_MPa": full["max_stress"] / 1e6, "peak_hip_all_Nm": full["peak_hip_torque"],
            "peak_knee_all_Nm": full["peak_knee_torque"], "foot_clearance_mm": 1e3 * full["foot_clearance"],
+           "flight_rise_mm": 1e3 * full["flight_rise"],
            "take_off_s": full["take_off_time"], "apex_s": full["apex_time"]}
     out.update(law_shape(float(full.get("law_t_push", law.t_push)), float(full.get("law_extend_hip", law.extend[0])),
                          float(full.get("law_extend_knee", law.extend[1])), law))
