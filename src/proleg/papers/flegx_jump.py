@@ -52,7 +52,10 @@ Jump metrics
   ``tip_displacement`` is signed along the strip's thickness axis u2 × y (u2 from knee to foot).
 - ``peak_hip_torque``/``peak_knee_torque`` [N m]: at the joint (wheel side) and, as
   ``*_worm``, at the worm (motor side): the motor's torque of the worm dynamics
-  (``gears="worm"``, :func:`worm_drive_outputs`) or the wheel torque / 9.67 (ideal).
+  (``gears="worm"``, :func:`worm_drive_outputs`) or the wheel torque / 9.67 (ideal); over the
+  whole run (stand, squat, push, flight, landing). ``peak_hip_torque_takeoff`` and
+  ``peak_knee_torque_takeoff`` [N m]: the same at the joints up to take-off (Table I's phase,
+  as ``max_stress_takeoff``; the whole run if the foot never leaves the ground).
 - ``motor_energy`` [J] = ∫ (|P_hip| + |P_knee|) dt of the motors' power, ``motor_work_positive``
   [J] = ∫ max(P, 0) dt (the energy drawn without regeneration), ``mesh_loss_energy`` [J] the
   worm meshes' friction loss.
@@ -378,11 +381,14 @@ def jump_metrics(res, model, law: MotionLaw) -> tuple[dict, dict]:
     # airborne point after the push starts; the jump height is that point above the standing height
     jump, (i_to, i_ld) = jump_flight(t, gz, N, law)
     m = dict(total_mass=info.total_mass, **jump)
+    i_end = i_to + 1 if jump["flights"] else len(t)  # the take-off phase: samples [0, i_end)
+    m.update(max_stress_takeoff=float(np.max(stress[:i_end])),
+             peak_hip_torque_takeoff=float(np.max(np.abs(hip_tau[:i_end]))),
+             peak_knee_torque_takeoff=float(np.max(np.abs(knee_joint_tau[:i_end]))))
     if jump["flights"]:
-        m.update(foot_clearance=float(np.max(foot_z[i_to : i_ld + 1])), take_off_velocity=float(gvz[i_to]),
-                 max_stress_takeoff=float(np.max(stress[: i_to + 1])))
+        m.update(foot_clearance=float(np.max(foot_z[i_to : i_ld + 1])), take_off_velocity=float(gvz[i_to]))
     else:
-        m.update(foot_clearance=0.0, take_off_velocity=math.nan, max_stress_takeoff=float(np.max(stress)))
+        m.update(foot_clearance=0.0, take_off_velocity=math.nan)
     m.update(
         max_stress=float(np.max(stress)), max_stress_clamp_reaction=float(np.max(stress_clamp)),
         tip_displacement=float(np.max(np.abs(tip))),

@@ -225,8 +225,10 @@ def _jump_findings(outs) -> str:
 # ------------------------------------------------------------------------------------------
 # flegx-machinery
 # ------------------------------------------------------------------------------------------
-#: the pushes [s] the machinery run's law is searched among (flegx_codesign.push_at_limits)
-MACHINERY_PUSHES = (0.22, 0.27, 0.32, 0.38)
+#: the machinery run's co-design (flegx_codesign.optimise_law, CB link with worm gears in the
+#: dynamics): a start grid of MACHINERY_START pushes, then CMA-ES, MACHINERY_TRIALS trials in
+#: generations of MACHINERY_BATCH (reduced: a CB-and-worm jump costs several PRBM ones)
+MACHINERY_START, MACHINERY_TRIALS, MACHINERY_BATCH = 4, 12, 4
 
 
 def run_machinery(out_dir="results/flegx-machinery", progress: bool = True, workers: int | None = None) -> Path:
@@ -237,15 +239,17 @@ def run_machinery(out_dir="results/flegx-machinery", progress: bool = True, work
     wall0 = time.perf_counter()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    # the push is not picked by hand: the shortest push within 520 MPa up to take-off and the 77 N m wheel rating,
-    # found with worm gears in the dynamics by flegx_codesign.push_at_limits (its binding constraint is reported)
+    # the law is not picked by hand: the largest jump within 520 MPa and the 77 N m wheel rating up to take-off,
+    # found with the CB link and worm gears in the dynamics by CMA-ES over the push and the extended pose
     from ..errors import ModelError
-    from .flegx_codesign import push_at_limits
+    from .flegx_codesign import optimise_law
 
-    found = push_at_limits(4, 2, "cb", gears="worm", pushes=MACHINERY_PUSHES, store=out / "codesign")
-    if "t_push_s" not in found:
-        raise ModelError(f"flegx-machinery: no push in {MACHINERY_PUSHES} s meets the limits ({found['binding']}); widen the grid.")
-    law = dict(extend=(-20.0 * deg, 40.0 * deg), t_push=float(found["t_push_s"]))
+    found = optimise_law(4, 2, "cb", "worm", n_trials=MACHINERY_TRIALS, batch=MACHINERY_BATCH, start=MACHINERY_START,
+                         store=out / "codesign")
+    if not found["feasible"]:
+        raise ModelError("flegx-machinery: the co-design found no law within the limits; raise MACHINERY_TRIALS.")
+    pd.DataFrame([found]).to_parquet(out / "codesign.parquet", index=False)
+    law = dict(extend=(found["extend_hip_deg"] * deg, found["extend_knee_deg"] * deg), t_push=float(found["t_push_s"]))
     jobs = [dict(tag=g, configuration=4, link_case=2, link_model="cb", gears=g, dt_output=1e-3, animate=g == "worm", **law)
             for g in ("worm", "ideal")]
     outs = run_jobs(jobs, workers, progress)
@@ -265,9 +269,13 @@ def run_machinery(out_dir="results/flegx-machinery", progress: bool = True, work
         "η_back = 0.34-0.39 wheel driving; FLEGX's worm would self-lock only above f = 0.217); the torque at the worm is the "
         "motor's (the motion's effort), the loss is the mesh's friction power f W v_s. With ideal gears the wheels are "
         "driven directly and the worm torque is the wheel torque / 9.67. "
-        f"The push ({law['t_push']:.3f} s) is not picked by hand: it is the shortest push among {list(MACHINERY_PUSHES)} s "
-        "(interpolated between them) at which the stress up to take-off stays within 520 MPa and each wheel torque within "
-        f"its 77 N m rating, with worm gears in the dynamics (flegx_codesign.push_at_limits); binding: {found['binding']}.")
+        f"The law (push {law['t_push']:.3f} s from the squat to ({found['extend_hip_deg']:.1f}°, {found['extend_knee_deg']:.1f}°)) "
+        "is not picked by hand: it is the largest jump that CMA-ES found over the push duration and the extended pose with the "
+        "CB link and worm gears in the dynamics, within 520 MPa and the 77 N m wheel rating up to take-off (Table I's phase; "
+        f"flegx_codesign.optimise_law, {found['trials']} trials after a {MACHINERY_START}-push start grid, reduced size): "
+        f"foot clearance {found['height_mm']:.1f} mm (guide rise {found['jump_mm']:.1f} mm) at {found['stress_MPa']:.0f} MPa, hip {found['peak_hip_Nm']:.1f} N m, knee "
+        f"{found['peak_knee_Nm']:.1f} N m; binding: {found['binding']}; best per generation {found['history_mm']} mm. "
+        "The landing that follows is not constrained (seed 002 designs the take-off); its peaks are in the table below.")
     rep.add_heading("Results")
     rep.add_table(tab, "Metrics (seed 002 Fig. 4: 50 mm jump, max stress 447 MPa, tip displacement ≈ 32 mm, 12.8 % of L).",
                   float_format="{:.4g}", index=False)
@@ -316,39 +324,61 @@ def study_table(rows: pd.DataFrame) -> pd.DataFrame:
     })
 
 
-def _codesign_section(out: Path, configurations, extra: list) -> str:
-    """The reduced co-design of each configuration (PRBM, case 2), its table written to
-    ``out/codesign.parquet``; returns the ranking sentence, every number from the run."""
-    import pandas as pd
+#: the CLI's co-design size (reduced: 24 CMA-ES trials in generations of 6 after a 6-push start
+#: grid, about 4 min per configuration on a shared 2-core machine); bench/flegx_codesign.py runs
+#: the full size (64 trials, population 8) and commits its table to bench/results
+CODESIGN_TRIALS, CODESIGN_BATCH = 24, 6
 
-    from .flegx_codesign import CONSTRAINTS, push_at_limits, ranking_text
 
-    rows = []
-    for c in configurations:
-        r = push_at_limits(c, 2, "prbm", store=out / "codesign" / f"no{c}")
-        r.pop("grid")
-        rows.append(r)
-    df = pd.DataFrame(rows)
+def codesign_table(df: pd.DataFrame) -> pd.DataFrame:
+    """The co-design rows (``flegx_codesign.optimise_table_i``) beside seed 002 Table I, report units."""
+    return pd.DataFrame({
+        "configuration": df["configuration"], "paper mass [kg]": df["paper_mass_kg"], "mass [kg]": df["total_mass_kg"],
+        "paper jump [mm]": df["paper_jump_mm"], "co-designed foot clearance [mm]": df.get("height_mm"),
+        "guide rise [mm]": df.get("jump_mm"),
+        "paper stress [MPa]": df["paper_stress_MPa"], "stress to take-off [MPa]": df.get("stress_MPa"),
+        "hip / knee torque to take-off [N m]": [f"{h:.1f} / {k:.1f}" for h, k in zip(df.get("peak_hip_Nm"), df.get("peak_knee_Nm"), strict=True)],
+        "binding": df["binding"],
+        "law: push [s], extended (θ1, θ2) [deg]": [f"{t:.3f}, ({a:.1f}, {b:.1f})" for t, a, b in
+                                                   zip(df.get("t_push_s"), df.get("extend_hip_deg"), df.get("extend_knee_deg"), strict=True)],
+        "hand law clearance [mm]": df.get("ref_height_mm"), "best per generation [mm]": df["history_mm"], "converged": df["converged"],
+    })
+
+
+def _codesign_section(out: Path, configurations, extra: list, n_trials: int = CODESIGN_TRIALS, batch: int = CODESIGN_BATCH) -> tuple:
+    """The co-design of each configuration (PRBM, case 2, CMA-ES over the push and the extended
+    pose, flegx_codesign.optimise_table_i), stored in ``out/codesign`` and written to
+    ``out/codesign.parquet``; returns (ranking sentence, table), every number from the run."""
+    from .flegx_codesign import CONSTRAINT_PHASE, constraints, optimise_table_i, ranking_text
+
+    df = optimise_table_i(tuple(configurations), (2,), "prbm", n_trials=n_trials, batch=batch, reference={}, store=out / "codesign")
     df.to_parquet(out / "codesign.parquet", index=False)
-    lim = ", ".join(f"{k} {op} {b / 1e6:g} MPa" if "stress" in k else f"{k} {op} {b:g} N m" for k, (op, b) in CONSTRAINTS.items())
+    lim = ", ".join(f"{k} {op} {b / 1e6:g} MPa" if "stress" in k else f"{k} {op} {b:g} N m"
+                    for k, (op, b) in constraints(CONSTRAINT_PHASE).items())
     for _, r in df.iterrows():
-        if "jump_mm" in r and r["jump_mm"] == r["jump_mm"]:
-            extra.append(f"- Co-design No. {int(r['configuration'])}: push {r['t_push_s']:.3f} s → {r['jump_mm']:.1f} mm at "
-                         f"{r['stress_takeoff_MPa']:.0f} MPa, hip {r['peak_hip_Nm']:.1f} N m, knee {r['peak_knee_Nm']:.1f} N m; "
-                         f"binding: {r['binding']} (paper: {r['paper_jump_mm']:.1f} mm at {r['paper_stress_MPa']:.1f} MPa).")
+        if r.get("feasible"):
+            extra.append(f"- Co-design No. {int(r['configuration'])}: push {r['t_push_s']:.3f} s to ({r['extend_hip_deg']:.1f}°, "
+                         f"{r['extend_knee_deg']:.1f}°) → foot clearance {r['height_mm']:.1f} mm (guide rise {r['jump_mm']:.1f} mm) at {r['stress_MPa']:.0f} MPa, hip {r['peak_hip_Nm']:.1f} N m, "
+                         f"knee {r['peak_knee_Nm']:.1f} N m up to take-off; binding: {r['binding']}; best per generation "
+                         f"{r['history_mm']} mm ({'converged' if r['converged'] else 'not converged'}); the hand law clears "
+                         f"{r['ref_height_mm']:.1f} mm{'' if r['ref_feasible'] else ' (outside the limits)'} "
+                         f"(paper: {r['paper_jump_mm']:.1f} mm at {r['paper_stress_MPa']:.1f} MPa).")
         else:
             extra.append(f"- Co-design No. {int(r['configuration'])}: {r['binding']}.")
-    return (f"- Co-design (PRBM, case 2; the push duration of each configuration found within {lim}, "
-            "flegx_codesign.push_at_limits): " + ranking_text(df) + ".")
+    head = (f"- Co-design (PRBM, case 2; CMA-ES over the push duration and the extended pose, {n_trials} trials per configuration, "
+            f"within {lim}, i.e. up to take-off, the phase of Table I, seed 002 §IV; flegx_codesign.optimise_table_i): "
+            + ranking_text(df) + ".")
+    return head, codesign_table(df)
 
 
 def run_study(out_dir="results/flegx-study", progress: bool = True, workers: int | None = None, configurations=(1, 2, 3, 4),
               cases=(1, 2, 3, 4, 5, 6), codesign: bool = True) -> Path:
     """Configurations No. 1-4 × link cases 1-6 (PRBM) + the CB link for case 2: Table I, as
     :class:`proleg.study.Study` groups (``flegx_study``), stored in ``out_dir/store`` (resumable).
-    With ``codesign`` each configuration's push is also found by the reduced co-design of
-    :func:`proleg.papers.flegx_codesign.push_at_limits` (PRBM, case 2: the shortest push within
-    520 MPa and the 77 N m wheel rating), stored in ``out_dir/codesign``."""
+    With ``codesign`` each configuration's law (push duration and extended pose) is also found
+    by :func:`proleg.papers.flegx_codesign.optimise_table_i` (PRBM, case 2, CMA-ES at the reduced
+    size :data:`CODESIGN_TRIALS`: the largest jump within 520 MPa and the 77 N m wheel rating up
+    to take-off), stored in ``out_dir/codesign``, shown beside Table I with its binding constraint."""
     import resource
 
     from ..report.html import Report
@@ -412,16 +442,24 @@ def run_study(out_dir="results/flegx-study", progress: bool = True, workers: int
                          "speed does not depend on its mass; the configurations differ only through the strip's dynamics (a "
                          "heavier leg bends the strip more and the push then lands elsewhere on its bounce period), and through "
                          "the mass split, which Table I does not print (assumed: flegx_data). The co-design section below "
-                         "gives each configuration its own push, found within the stress limit and the wheel rating.")
+                         "gives each configuration its own law (push duration and extended pose), found by CMA-ES within the stress limit "
+                         "and the wheel rating.")
             break
+    cd_tab = None
     if codesign:
         extra: list = []
-        lines.append(_codesign_section(out, configurations, extra))
+        head, cd_tab = _codesign_section(out, configurations, extra)
+        lines.append(head)
         lines += extra
     flagged = tab[tab["> 510 MPa"]]
     lines.append(f"- Over 510 MPa up to take-off: {len(flagged)} of {len(tab)} variants"
                  + (": " + ", ".join(f"No. {r['configuration']} case {r['link case']} {r['link model']}" for _, r in flagged.iterrows()) if len(flagged) else "") + ".")
     rep.add_text("\n".join(lines))
+    if cd_tab is not None:
+        rep.add_table(cd_tab, f"Table I by co-design (PRBM, link 250 × 70 × 3 mm): each configuration's law of largest jump within "
+                      f"520 MPa and the 77 N m wheel rating up to take-off (height: the foot's clearance over the flight), found by CMA-ES ({CODESIGN_TRIALS} trials, reduced; "
+                      "bench/flegx_codesign.py runs 64), beside seed 002 Table I. 'hand law': flegx_jump's 0.30 s push to (−20°, 40°).",
+                      float_format="{:.4g}", index=False)
     rep.add_heading("All variants")
     rep.add_table(tab, "Every run (PRBM for all cases, CB for case 2). '> 510 MPa' flags the stress up to take-off.",
                   float_format="{:.4g}", index=False)
