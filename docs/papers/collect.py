@@ -37,6 +37,13 @@ def _drop_summary(df: pd.DataFrame) -> pd.DataFrame:
     return summ.reset_index()
 
 
+def _codesign(df: pd.DataFrame) -> pd.DataFrame:
+    """flegx-study's co-design rows (codesign.parquet) as its report shows them."""
+    from proleg.papers.flegx_report import codesign_table
+
+    return codesign_table(df)
+
+
 # scenario -> [(Parquet file in results/NAME/, title, columns to keep, None for all, or a function
 # of the table that derives the one to show)]
 TABLES = {
@@ -45,7 +52,9 @@ TABLES = {
     "torso-modal": [("table2_comparison.parquet", "Seed 001 Table 2 against the FE model and the identified prototype", None)],
     "flegx-jump": [("metrics.parquet", "Countermovement jump, No. 4, 250×70×3 link: rigid vs PRBM vs Craig–Bampton", None)],
     "flegx-machinery": [("metrics.parquet", "Worm gears in the dynamics vs ideal gears (seed 002 Fig. 4)", None)],
-    "flegx-study": [("table1.parquet", "Seed 002 Table I: configurations 1–4 × link cases, next to the paper", None)],
+    "flegx-study": [("table1.parquet", "Seed 002 Table I: configurations 1–4 × link cases, next to the paper", None),
+                    ("codesign.parquet", "Table I by co-design: each configuration's optimum law within 520 MPa and 77 N m (reduced size)",
+                     _codesign)],
     "scout2-bound": [("metrics.parquet", "Bounding gait metrics, Model I and Model II (seed 003 §5)", None)],
     "hyq-stand": [("feet.parquet", "Whole HyQ settled on four feet: vertical ground reaction per foot against its weight share", None),
                   ("joints.parquet", "Servo torques against the static closed form (moments of distal gravity and foot reaction)", None)],

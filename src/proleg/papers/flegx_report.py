@@ -335,7 +335,7 @@ def codesign_table(df: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame({
         "configuration": df["configuration"], "paper mass [kg]": df["paper_mass_kg"], "mass [kg]": df["total_mass_kg"],
         "paper jump [mm]": df["paper_jump_mm"], "co-designed foot clearance [mm]": df.get("height_mm"),
-        "guide rise [mm]": df.get("jump_mm"),
+        "guide rise [mm]": df.get("jump_mm"), "flight rise [mm]": df.get("flight_rise_mm"),
         "paper stress [MPa]": df["paper_stress_MPa"], "stress to take-off [MPa]": df.get("stress_MPa"),
         "hip / knee torque to take-off [N m]": [f"{h:.1f} / {k:.1f}" for h, k in zip(df.get("peak_hip_Nm"), df.get("peak_knee_Nm"), strict=True)],
         "binding": df["binding"],
