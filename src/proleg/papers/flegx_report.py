@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..errors import ModelError
 from ..robots import flegx_data as D
 
 COLORS = {"rigid": "#444444", "prbm": "#d62728", "cb": "#1f77b4", "ideal": "#2ca02c", "worm": "#9467bd"}
@@ -134,30 +135,49 @@ def _long(outs, key="tag"):
     return pd.concat(frames, ignore_index=True)
 
 
-def _law_rows():
+def _law_rows(**fields):
+    """The law's parameter rows; ``fields`` override MotionLaw's defaults (e.g. a push found by a search)."""
     from .flegx_jump import MotionLaw
 
-    law = MotionLaw()
+    law = MotionLaw(**fields)
     d = np.rad2deg
     return [
         ("stand / squat / extend θ1", [d(law.stand[0]), d(law.squat[0]), d(law.extend[0])], "deg", "assumed (seed 002 prints no angles)"),
         ("stand / squat / extend θ2", [d(law.stand[1]), d(law.squat[1]), d(law.extend[1])], "deg", "assumed"),
         ("settle, squat, hold, push, retract", [law.t_settle, law.t_squat, law.t_hold, law.t_push, law.t_retract], "s",
-         "assumed; cubic STEP, seed 002 Eq. 18"),
+         "assumed; cubic STEP, seed 002 Eq. 18" + ("; push: at the limits (flegx_codesign.push_at_limits)" if "t_push" in fields else "")),
     ]
 
 
 # ------------------------------------------------------------------------------------------
 # flegx-jump
 # ------------------------------------------------------------------------------------------
+#: the push grid [s] flegx-jump searches for the push at the limits (push_at_limits interpolates
+#: between its points; the stress falls as the push lengthens)
+JUMP_PUSHES = (0.16, 0.20, 0.25, 0.30, 0.38, 0.45)
+
+
 def run_jump(out_dir="results/flegx-jump", progress: bool = True, workers: int | None = None) -> Path:
-    """No. 4 with link case 2: rigid vs PRBM vs CB link, same motion law (seed 002 Fig. 3)."""
+    """No. 4 with link case 2: rigid vs PRBM vs CB link, same motion law (seed 002 Fig. 3).
+
+    The law is not picked by hand: its push duration is the shortest at which the PRBM leg stays
+    within the limits up to take-off (520 MPa, Table I's stress; 77 N m, the wheel rating:
+    :func:`~proleg.papers.flegx_codesign.push_at_limits` on :data:`JUMP_PUSHES`), the squat and
+    extended pose flegx_jump's documented ones; the rigid and CB legs then run that law, as seed
+    002 §III.A compares its PRBM and LFM "imposing the same motion laws"."""
     from ..report.html import Report
+    from .flegx_codesign import push_at_limits
 
     wall0 = time.perf_counter()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    jobs = [dict(tag=lm, configuration=4, link_case=2, link_model=lm, dt_output=1e-3, animate=lm == "cb") for lm in ("cb", "prbm", "rigid")]
+    found = push_at_limits(4, 2, "prbm", pushes=JUMP_PUSHES, store=out / "push")
+    if "t_push_s" not in found:
+        raise ModelError(f"flegx-jump: no push of {JUMP_PUSHES} s keeps the PRBM leg within the limits ({found['binding']}); "
+                         "lengthen JUMP_PUSHES.")
+    t_push = float(found["t_push_s"])
+    jobs = [dict(tag=lm, configuration=4, link_case=2, link_model=lm, dt_output=1e-3, animate=lm == "cb", t_push=t_push)
+            for lm in ("cb", "prbm", "rigid")]
     outs = run_jobs(jobs, workers, progress)
     outs = sorted(outs, key=lambda o: ("rigid", "prbm", "cb").index(o["tag"]))
     tab = _metrics_table(outs)
@@ -190,6 +210,10 @@ def run_jump(out_dir="results/flegx-jump", progress: bool = True, workers: int |
     for k, (fig, cap) in enumerate(figs, 1):
         fig.savefig(out / f"fig{k}.png", dpi=110, bbox_inches="tight")
         rep.add_figure(fig, cap)
+    rep.add_text(f"The law's push, {t_push:.3f} s, is the shortest at which the PRBM leg keeps within the limits up to take-off "
+                 f"(binding: {found['binding']}, {found['stress_MPa']:.0f} MPa, hip {found['peak_hip_Nm']:.1f} N m, knee "
+                 f"{found['peak_knee_Nm']:.1f} N m; flegx_codesign.push_at_limits over {len(JUMP_PUSHES)} pushes, interpolated; "
+                 f"{'monotone' if found.get('monotone') else 'not monotone: the interpolation is approximate'} on the grid).")
     rep.add_text(_jump_findings(outs))
     rep.add_heading("3D animation (Craig-Bampton link)")
     rep.add_text("The whole run (stand, squat, push, flight, landing) of the CB model; drag to orbit, the slider scrubs time. "
@@ -199,7 +223,7 @@ def run_jump(out_dir="results/flegx-jump", progress: bool = True, workers: int |
     rep.add_heading("Model")
     pr = next(o["prbm"] for o in outs if o["tag"] == "prbm")
     fr = next(o["frequencies_hz"] for o in outs if o["tag"] == "cb")
-    rep.add_parameters(outs[-1]["parameters"] + _law_rows() + [
+    rep.add_parameters(outs[-1]["parameters"] + _law_rows(t_push=t_push) + [
         ("PRBM γ, K_t, C_t, J", [pr["gamma"], pr["K_t"], pr["C_t"], pr["J"]], "-, N m/rad, N m s/rad, kg m²", "seed 002 Eqs. 8-11"),
         ("CB link deformation frequencies (clamped at the frame node)", fr, "Hz", "beam FE, Craig-Bampton"),
     ], "Parameters and sources (MODEL_DATA §3).")
@@ -241,7 +265,6 @@ def run_machinery(out_dir="results/flegx-machinery", progress: bool = True, work
     out.mkdir(parents=True, exist_ok=True)
     # the law is not picked by hand: the largest jump within 520 MPa and the 77 N m wheel rating up to take-off,
     # found with the CB link and worm gears in the dynamics by CMA-ES over the push and the extended pose
-    from ..errors import ModelError
     from .flegx_codesign import optimise_law
 
     found = optimise_law(4, 2, "cb", "worm", n_trials=MACHINERY_TRIALS, batch=MACHINERY_BATCH, start=MACHINERY_START,
