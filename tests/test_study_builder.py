@@ -64,7 +64,7 @@ def count_sweep_compilations(run):
 def check_rows_equal_their_simulate(tab, build):
     for row in tab.to_dict("records"):
         assert row["status"] == "success", row["reason"]
-        ref = pl.simulate(build(row), progress=False, **KW)
+        ref = pl.simulate(build(row), progress=False, integrator=pl.GeneralizedAlpha(), **KW)  # a study's default method
         expected = {k: float(fn(ref)) for k, fn in OUTPUTS.items()}
         for k, v in expected.items():  # vmap batch against one run: the same arithmetic, rounding apart
             assert row[k] == pytest.approx(v, abs=1e-9, rel=1e-9), (k, row)
@@ -93,3 +93,17 @@ def test_a_motion_capturing_a_builder_argument_splits_the_group():
     tab, n_compiled = count_sweep_compilations(lambda: st.run(design="grid", executor="vmap", workers=1, batch_size=4, progress=False))
     assert n_compiled == 2 and tab["batch"].nunique() == 1
     check_rows_equal_their_simulate(tab, lambda row: pendulum(row["length"], row["k"], row["amp"]))
+
+
+
+def test_a_batch_whose_values_do_not_reach_the_state_still_reports_its_status():
+    # an ``apply`` that keeps the built system (its numbers are constants of the build, as
+    # FLEGX's study does) runs the batched simulation untraced: the status must still reach
+    # the table (it once failed: "'Result' object has no attribute 'traced_status'")
+    st = pl.study.Study(pendulum, space={"length": [1.0], "k": 50.0}, outputs=OUTPUTS, simulate=KW,
+                        apply=lambda system, values: system)
+    tab = st.run(design="grid", executor="vmap", workers=1, batch_size=1, progress=False)
+    assert list(tab["status"]) == ["success"], tab["reason"].tolist()
+    ref = pl.simulate(pendulum(1.0, 50.0), progress=False, integrator=pl.GeneralizedAlpha(), **KW)  # a study's default method
+    assert tab["x_tip"].iloc[0] == pytest.approx(float(OUTPUTS["x_tip"](ref)), rel=1e-9)
+    assert tab["steps"].iloc[0] == ref.stats["steps"]

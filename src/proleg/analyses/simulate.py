@@ -274,6 +274,11 @@ def simulate(
     if traced:  # status, failure time and counters as arrays (a Result's own fields need concrete values)
         result.traced_status = sol.traced_status
     else:
+        # the same tuple from the concrete run: a batched caller (sweep, study) whose batch does
+        # not reach the state (one variant, nothing varied) runs this path under vmap and reads it
+        st = result.stats
+        result.traced_status = (np.asarray(int(result.status)), np.asarray(float(result.t[-1]) if len(result.t) else float(t0)),
+                                np.asarray([st["steps"], st["rejected"], st["newton_iterations"], st["jacobians"]], np.int32))
         q_ic, v_ic = sol.start
         result.initial_changes = _ic_report(system, q_ic, v_ic) if q0 is None and v0 is None else []
         moved = [c for c in result.initial_changes if max(c["moved [m]"], c["rotated [rad]"]) > 1e-6]
