@@ -28,7 +28,7 @@ import numpy as np
 
 from common import add_output_args, emit, log
 
-COLUMNS = ["model", "Table 6 per", "δ [deg]", "strides", "speed [m/s]", "period", "fell", "SR mech", "SR el", "longest brake [s]",
+COLUMNS = ["model", "Table 6 per", "set", "δ [deg]", "strides", "speed [m/s]", "period", "fell", "SR mech", "SR el", "longest brake [s]",
            "retraction work [W]", "toe slip in retraction [W]", "brake negative work [W]", "leg dampers [W]", "wall [s]"]
 
 
@@ -65,29 +65,36 @@ def main():
     ap.add_argument("--models", default="I,II")
     ap.add_argument("--deltas", default="-4,0,4,8,12,16", help="touchdown offsets [deg]")
     ap.add_argument("--per", default="virtual", help="Table 6 reading(s), comma-separated")
+    ap.add_argument("--set", action="append", default=[], metavar="NAME=V1,V2",
+                    help="a Scout2Params field and values to run each at (e.g. mu=0.5,1.2 for the unknown toe friction)")
     add_output_args(ap, "scout2_setpoints")
     args = ap.parse_args()
     from proleg.papers import scout2_study as S
     from proleg.units import deg
 
+    variants = [{}]
+    for spec in args.set:
+        name, vals = spec.split("=", 1)
+        variants = [{**v, name: float(x)} for v in variants for x in vals.split(",")]
     rows = []
     for per in args.per.split(","):
         for model in args.models.split(","):
             base = None
-            for d in (float(x) for x in args.deltas.split(",")):
-                log(f"Model {model}, per {per}, δ = {d:g}°")
-                run = S.run_point(model, args.t_end, base=base, delta=d * deg, per=per)
-                base = base or run
-                m = run.metrics
-                ok = not m["fell"] and m["strides"] > 0 and m["period"] in (1, 2)
-                rows.append({
-                    "model": model, "Table 6 per": per, "δ [deg]": d, "strides": m["strides"],
-                    "speed [m/s]": m["forward_speed"], "period": m["period"], "fell": m["fell"],
-                    "SR mech": m["specific_resistance_mechanical"] if ok else float("nan"),
-                    "SR el": m["specific_resistance_electrical"] if ok else float("nan"),
-                    **energy_split(run), "wall [s]": run.wall_time,
-                })
-                log(str(rows[-1]))
+            for var in variants:
+                for d in (float(x) for x in args.deltas.split(",")):
+                    log(f"Model {model}, per {per}, {var}, δ = {d:g}°")
+                    run = S.run_point(model, args.t_end, base=base, delta=d * deg, per=per, **var)
+                    base = base or run
+                    m = run.metrics
+                    ok = not m["fell"] and m["strides"] > 0 and m["period"] in (1, 2)
+                    rows.append({
+                        "model": model, "Table 6 per": per, "set": ", ".join(f"{k}={v:g}" for k, v in var.items()) or "nominal", "δ [deg]": d, "strides": m["strides"],
+                        "speed [m/s]": m["forward_speed"], "period": m["period"], "fell": m["fell"],
+                        "SR mech": m["specific_resistance_mechanical"] if ok else float("nan"),
+                        "SR el": m["specific_resistance_electrical"] if ok else float("nan"),
+                        **energy_split(run), "wall [s]": run.wall_time,
+                    })
+                    log(str(rows[-1]))
     emit(args, f"Scout II from standing across touchdown offsets δ ({args.t_end:g} s per run)", rows, COLUMNS,
          {"t_end [s]": args.t_end, "start": "standing (Scout2Params defaults)"})
 
