@@ -6,7 +6,10 @@ the evidence for where the bound is lost, one row per run:
 - ``start``: "standing" is the builder's start (at rest, legs vertical, 3 cm drop, controller in
   flight); "cycle apex" is the former start (the apex of Model I's limit cycle with the damping
   halved: height 0.344 m, 1.5 m/s, 2.16 rad/s nose-up, back leg at 19°) — a state inside the old
-  cycle, so a run that loses the bound from there shows that the gait, not the start, fails;
+  cycle, so a run that loses the bound from there shows that the gait, not the start, fails.
+  That cycle was found with Table 6 read per physical leg; the rows now use scout2's default
+  reading (per virtual leg), where it is just a bounding-like start. bench/scout2_setpoints.py
+  is the from-standing map with the default reading;
 - ``damping``: Table 6's 55 N s/m per virtual leg (printed, scout2's default reading) or halved;
 - the back-lift-off strides and their speeds, whether it fell, the longest time a leg's
   controller stayed in stance-brake (the stall: the robot pivots over a braked leg held at the
