@@ -18,9 +18,10 @@ from proleg.units import deg
 
 
 # A configuration that bounds, to test the machinery (gait metrics, bookkeeping, controller):
-# Table 6's damping halved and Model I's own cycle apex as the start. This is NOT the report's
-# comparison (which uses the damping as printed and a standing start for both models).
-BOUNDING = dict(leg_damping=27.5, height=0.344, speed=1.5, pitch_rate=2.16, leg_angle_back=19 * deg)
+# Table 6 read per physical leg with the damping halved, and that model's own cycle apex as the
+# start. This is NOT the report's comparison (Table 6 per virtual leg as printed, a standing
+# start for both models).
+BOUNDING = dict(per="physical", leg_damping=27.5, height=0.344, speed=1.5, pitch_rate=2.16, leg_angle_back=19 * deg)
 
 
 @pytest.fixture(scope="module")
@@ -36,6 +37,29 @@ def test_model_is_planar_with_coupler_for_model_II():
     s2 = pl.assemble(m2)
     assert s2.topo.planar[0] is not None, s2.topo.planar[1]
     np.testing.assert_allclose(np.asarray(s2.params["coupler_ratio"]), 72.38 * 48 / 34)
+
+
+def test_table6_is_read_per_virtual_leg_by_default():
+    """Seed 003 §2.3 / Table 2 define k_i, b_i for i = b, f (the virtual legs) and §5.1 lists
+    the planar model's parameters in Table 6: by default a virtual leg gets Table 6's values as
+    printed; per="physical" (the other reading) gives it twice each. Tables 4 and 5 stay per
+    physical leg in both readings."""
+    from proleg.robots import scout2_data as D
+
+    assert D.TABLE6_READING == "virtual"
+    mv, mp = scout2("II"), scout2("II", per="physical")
+    assert mv.scout2.per == "virtual" and mp.scout2.per == "physical"
+    for leg in ("back", "front"):
+        sv, sp = mv.force(f"{leg}_spring"), mp.force(f"{leg}_spring")
+        assert (sv.stiffness, sv.damping) == (3520.0, 55.0)
+        assert (sp.stiffness, sp.damping) == (2 * 3520.0, 2 * 55.0)
+        mleg = lambda m: m.part(f"{leg}_upper").mass + m.part(f"{leg}_lower").mass
+        np.testing.assert_allclose(mleg(mv), 0.97, rtol=1e-12)
+        np.testing.assert_allclose(mleg(mp), 2 * 0.97, rtol=1e-12)
+        # Table 5 (per physical leg, §4.2) is two legs' worth in both readings
+        assert mv.force(f"{leg}_belt").stiffness == mp.force(f"{leg}_belt").stiffness == 2 * D.BELT_STIFFNESS
+    rows = dict((r[0], r[3]) for r in mv.scout2.parameters)
+    assert "Table 2" in rows["Table 6 leg values read per"]
 
 
 def test_virtual_motor_is_two_motors_in_parallel():

@@ -39,6 +39,7 @@ from ..assembly.system import System
 from ..drives.dcmotor import specific_resistance
 from ..errors import ModelError
 from ..solvers.galpha import GeneralizedAlpha
+from ..robots import scout2_data as D
 from ..robots.scout2 import LEGS, scout2
 
 __all__ = ["BoundRun", "scout2_bound", "stride_table", "gait_metrics", "detect_period", "energy_balance", "pitch_deg"]
@@ -262,7 +263,7 @@ def energy_balance(result: Result, info) -> dict:
     return out
 
 
-def scout2_bound(model: str = "I", t_end: float = 10.0, *, per: str = "physical", transient: float | None = None, dt_output: float = 1e-3,
+def scout2_bound(model: str = "I", t_end: float = 10.0, *, per: str = D.TABLE6_READING, transient: float | None = None, dt_output: float = 1e-3,
                  system: System | None = None, variables: dict | None = None, rtol: float = 1e-6, progress: bool | None = None, **params) -> BoundRun:
     """Run Scout II bounding and measure the gait (see the module docstring).
 

@@ -257,17 +257,17 @@ def run_bound(out_dir, *, t_end: float = 6.0, low_speed: bool = True, sensitivit
     per_runs = {}
     if table6:
         for model in ("I", "II"):
-            log(f"Model {model}: Table 6 read per virtual leg")
+            log(f"Model {model}: Table 6 read per physical leg (the other reading)")
             kw = {**NOMINAL_START, **(mu_kw if model == "II" else {})}
-            sv = variant_system(base[model].system, model, per="virtual", **kw)
-            per_runs[f"Model {model}, per virtual leg"] = r = scout2_bound(model, t_end, system=sv, per="virtual", transient=t_end / 2, **kw)
-            points.append(S.point_row(r, f"Model {model}, Table 6 per virtual leg"))
+            sv = variant_system(base[model].system, model, per="physical", **kw)
+            per_runs[f"Model {model}, per physical leg"] = r = scout2_bound(model, t_end, system=sv, per="physical", transient=t_end / 2, **kw)
+            points.append(S.point_row(r, f"Model {model}, Table 6 per physical leg"))
         for model in ("I", "II"):
-            log(f"Model {model}: leg damping read per virtual leg, the rest per physical leg (the earlier mixed reading)")
+            log(f"Model {model}: per physical leg with the damping halved (the earlier mixed reading)")
             kw = {**NOMINAL_START, **(mu_kw if model == "II" else {}), "leg_damping": D.LEG_DAMPING / 2}
-            sv = variant_system(base[model].system, model, **kw)
-            per_runs[f"Model {model}, damping halved"] = r = scout2_bound(model, t_end, system=sv, transient=t_end / 2, **kw)
-            points.append(S.point_row(r, f"Model {model}, leg damping halved"))
+            sv = variant_system(base[model].system, model, per="physical", **kw)
+            per_runs[f"Model {model}, damping halved"] = r = scout2_bound(model, t_end, system=sv, per="physical", transient=t_end / 2, **kw)
+            points.append(S.point_row(r, f"Model {model}, per physical leg, damping halved"))
     all_runs = {**runs, **extra, **per_runs}
     # data
     frames = []
@@ -300,7 +300,7 @@ def run_bound(out_dir, *, t_end: float = 6.0, low_speed: bool = True, sensitivit
         f"legs growing with their side load (SlideFriction: μ_d = {p.leg_mu:g} before calibration, bushing overlap {p.leg_overlap:g} m "
         f"centred {p.leg_bearing:g} m below the hip) and a gearbox drag of {p.gear_drag * 1e3:g} mN m + {p.gear_viscous:g} N m s/rad per "
         f"motor that makes the efficiency depend on load, speed and the direction of power flow. Table 6's leg damping is used as "
-        f"printed ({p.leg_damping:g} N s/m per physical leg). Both models start the same way: at rest in the standing posture "
+        f"printed and, as seed 003 §2.3, Table 2 and §5.1 imply, per {runs['Model II'].info.per} leg ({p.leg_stiffness:g} N/m, {p.leg_damping:g} N s/m). Both models start the same way: at rest in the standing posture "
         f"(legs vertical, no speed), released {1e3 * (p.height - p.leg_length - p.toe_radius):.0f} mm above touching; the controller "
         f"brings them into the bound. Runs last {t_end:g} s; strides from back-leg lift-off starting after {t_end / 2:g} s are the steady ones."
     )
@@ -340,7 +340,7 @@ def run_bound(out_dir, *, t_end: float = 6.0, low_speed: bool = True, sensitivit
         rep.add_table(pd.DataFrame(range_tab), "Model II with each unknown parameter at the ends of its justified range (scout2_data), the others nominal.", float_format="{:.4g}")
     if per_runs:
         rep.add_heading("Table 6: per physical or per virtual leg")
-        rep.add_table(_metrics_table({**{k: runs[k] for k in ("Model I", "Model II")}, **per_runs}), "The nominal runs next to the other readings of Table 6: every leg value per virtual leg, and only the leg damping per virtual leg (half the printed value per physical leg: the reading that let Model I bound before issue 31).", float_format="{:.4g}")
+        rep.add_table(_metrics_table({**{k: runs[k] for k in ("Model I", "Model II")}, **per_runs}), "The nominal runs (Table 6 per virtual leg, the reading the seed's text supports) next to the other reading, every Table 6 leg value per physical leg (a virtual leg twice each), and that reading with the damping halved (the mixed reading that let Model I bound before issue 31).", float_format="{:.4g}")
     if sens:
         rep.add_heading("Sensitivity to the interpreted Table 5 values (Model II)")
         rep.add_table(pd.DataFrame(sens), "Each garbled Table 5 value ×0.1 and ×10.", float_format="{:.4g}")

@@ -9,7 +9,9 @@
   a *lower leg* on a ``Prismatic`` joint along the leg, the leg spring-damper between hip and
   toe (free length = nominal length 0.323 m), a ``JointStop`` at the nominal length (the leg
   extension stop), and a toe ``SphereContact`` on the ground with Coulomb friction μ.
-  The leg mass and inertia (Table 6) are split between upper and lower leg by
+  Table 6's leg values (mass, inertia, spring, damping) are a virtual leg's (``per="virtual"``,
+  the default; scout2_data quotes the sentences of seed 003 §2.3, Table 2 and §5.1 that decide
+  it). The leg mass and inertia are split between upper and lower leg by
   ``lower_mass_fraction`` (default 0.3: the telescoping lower tube and toe), with the COMs at
   ``upper_com`` and ``lower_com`` from the hip (0.12 m and 0.27 m: the leg's COM at 0.165 m,
   half-way down the leg's upper part where the spring housing is), the inertia split in the
@@ -81,7 +83,7 @@ class Scout2Params:
     leg_mass: float = D.LEG_MASS
     leg_inertia: float = D.LEG_INERTIA
     leg_stiffness: float = D.LEG_STIFFNESS
-    leg_damping: float = D.LEG_DAMPING  # N s/m per physical leg, Table 6 as printed
+    leg_damping: float = D.LEG_DAMPING  # N s/m, Table 6 as printed (per virtual leg by default, see ``per``)
     half_hip_spacing: float = D.HIP_SEPARATION / 2
     leg_length: float = D.LEG_LENGTH
     lower_mass_fraction: float = 0.3
@@ -208,14 +210,18 @@ def virtual_drive(p: Scout2Params, losses: bool = False) -> DCMotorDrive:
     return d
 
 
-def scout2(model: str = "I", *, per: str = "physical", **params) -> Model:
+def scout2(model: str = "I", *, per: str = D.TABLE6_READING, **params) -> Model:
     """The Scout II sagittal model (seed 003), Model I or Model II; see the module docstring.
 
     Parameters
     ----------
     model : "I" (torque at the hip) or "II" (gears, coupler, belt spring-damper, joint friction)
-    per : "physical" (default) or "virtual": Table 6's leg values per physical leg (a virtual
-        leg is two of them) or per virtual leg (scout2_data explains the choice)
+    per : "virtual" (default) or "physical": how Table 6's leg values (leg mass, leg inertia,
+        spring, damping) are read. "virtual": as printed for each virtual leg, the reading seed
+        003 supports (§2.3 and Table 2 define k_i, b_i for i = b, f, the virtual legs; §5.1
+        "These models, whose parameters are listed in Table 6"; scout2_data quotes them);
+        "physical": per physical leg, a virtual leg twice each (the alternative, for comparison).
+        Tables 4 and 5 are per physical leg in both readings (the paper says so).
     **params : any field of :class:`Scout2Params` (angles in rad: ``touchdown_front=20 * deg``)
 
     Returns
@@ -408,13 +414,13 @@ def _parameter_table(p: Scout2Params, variant, per, drive):
     d = p.drive
     rows = [
         ("model", variant, "-", "seed 003 §5.1: I torque at the hip, II hip unit of Fig. 10"),
-        ("Table 6 leg values read per", per, "-", "not printed; scout2_data explains the choice"),
+        ("Table 6 leg values read per", per, "-", "per virtual leg: §2.3, Table 2 (k_i, b_i, i = b, f), §5.1; scout2_data quotes them"),
         ("body mass", p.body_mass, "kg", "Table 6"),
         ("body pitch inertia", p.body_inertia, "kg m²", "Table 6"),
-        ("leg mass (per physical leg)" if per == "physical" else "leg mass (per virtual leg)", p.leg_mass, "kg", "Table 6"),
-        ("leg inertia", p.leg_inertia, "kg m²", "Table 6"),
-        ("leg spring", p.leg_stiffness, "N/m", "Table 6"),
-        ("leg damping", p.leg_damping, "N s/m", "Table 6"),
+        (f"leg mass (per {per} leg)", p.leg_mass, "kg", "Table 6"),
+        (f"leg inertia (per {per} leg)", p.leg_inertia, "kg m²", "Table 6"),
+        (f"leg spring (per {per} leg)", p.leg_stiffness, "N/m", "Table 6 (Table 2: k_i)"),
+        (f"leg damping (per {per} leg)", p.leg_damping, "N s/m", "Table 6 (Table 2: b_i)"),
         ("half hip spacing", p.half_hip_spacing, "m", "Table 6 (0.552 / 2)"),
         ("nominal leg length (extension stop)", p.leg_length, "m", "Table 6"),
         ("lower-leg mass fraction", p.lower_mass_fraction, "-", "chosen (paper: one leg body)"),

@@ -3,30 +3,45 @@
 Every value cites its table; values the paper prints garbled or not at all are marked
 **interpreted**, with the reasoning, and stay parameters of :func:`proleg.robots.scout2`.
 
-Per physical or per virtual leg (Table 6 does not say)
--------------------------------------------------------
-We read Table 6's leg values (mass, inertia, spring, damping) and Table 5's hip-unit values as
-**per physical leg**, and build each virtual leg (a lateral pair, seed 003 §2.3 / Fig. 3) as
-two physical legs in parallel: twice the mass, inertia, spring, damping, belt stiffness and
-gear inertias, and one equivalent virtual motor (two motors in parallel at the same speed:
-same K_T and K_ω, half the armature resistance, twice the peak current, so Eqs. 3–4 give twice
-the torque). Three facts support it:
+Per virtual leg: how Table 6 is read (seed 003 §2.3, Table 2, §5.1)
+--------------------------------------------------------------------
+Table 6 does not print "per physical" or "per virtual" leg; the text around it decides.
+The model of §2.3 has virtual legs only:
 
-- Table 5's belt spring 7.0 N m/deg and the "≈ 8° at full torque" of §4.2 agree for *one*
-  motor: α K_T i_max = 51.9 N m / 7.0 N m/deg = 7.4°.
-- Table 4 says its gains are per physical leg ("for each of the physical legs", §3.2).
-- With 3520 N/m per *virtual* leg, the robot's weight (24.7 kg) alone would compress a
-  single-stance leg by 69 mm (21 % of 0.323 m) and the dynamic stance load ~2–3 times that;
-  per physical leg it is half.
+- §2.3: "Scout II can be considered as a three-body kinematic chain composed of the body and
+  the front and back leg pairs, also called the virtual legs (Raibert 1986; see Figure 3). A
+  linear spring/damper system models the leg compliance during the stance phase."
+- §2.3: "The two-dimensional model presented in Figure 3 can be described by seven
+  coordinates [...] The design parameters of the robot are presented in Table 2", and Table 2
+  defines "k_i Spring stiffness i-th leg", "b_i Damping constant i-th leg" with i = b, f
+  (Eq. 2: "where i = b, f"): one spring and one damper per *virtual* leg.
+- §5.1: "Two models were used [...] These models, whose parameters are listed in Table 6, are
+  illustrated in Figure 11": Table 6 lists the parameters of that planar three-body model
+  (body + two virtual legs), so its leg mass, leg inertia, spring and damping constants are a
+  virtual leg's.
+- Where the paper means physical legs it says so, and Table 6 has no such note: Table 4, "The
+  controller parameters used for each of the physical legs are presented in Table 4" (§3.2);
+  Table 5, "the resulting parameter values for the physical legs are presented in Table 5"
+  (§4.2). §4.1 likewise models "the two equivalent virtual motors actuating the front and back
+  virtual legs" instead of the four physical motors.
 
-The leg damping is read the same way, as printed (55 N s/m per physical leg, 110 N s/m per
-virtual leg); an earlier version halved it because Model I did not bound from its own limit
-cycle otherwise, a choice that favoured one model (issue 31). The damping of the real telescopic
-legs is partly friction (§5.2 blames "stiction and nonlinear damping ... inherent in the
-telescopic leg design"), which Model II now carries as a separate element (below).
+So ``scout2(per="virtual")`` (the default) gives each virtual leg Table 6's values as printed:
+0.97 kg, 0.01 kg m², 3520 N/m, 55 N s/m (a physical leg is half of each: 1760 N/m,
+27.5 N s/m). Tables 4 and 5 stay per physical leg (two of them per virtual leg: twice the
+gains, belt stiffness and gear inertias; one equivalent virtual motor of two motors in
+parallel: same K_T and K_ω, half R_a, twice the peak current, so Eqs. 3–4 give twice the
+torque). Table 5's belt spring 7.0 N m/deg agrees with the "≈ 8° at full torque" of §4.2 for
+one motor (α K_T i_max = 51.9 N m / 7.0 N m/deg = 7.4°), consistent with "physical legs".
 
-The report shows what the other reading (``per="virtual"``: Table 6 values for the whole
-virtual leg) changes. The body mass and inertia are the whole body's either way.
+``per="physical"`` is the other reading (every Table 6 leg value per physical leg, a virtual
+leg twice each), kept to show what the choice changes; it was the default before issue 31's
+second pass. Its argument was the stance compression: with 3520 N/m per virtual leg the whole
+robot's weight (22.8 kg) compresses a single-stance virtual leg by 64 mm (20 % of 0.323 m).
+That is large, but the text above, not a plausibility estimate, decides the reading. No value
+here is chosen to reach a speed. The damping of the real telescopic legs is partly friction
+(§5.2 blames "stiction and nonlinear damping ... inherent in the telescopic leg design"),
+which Model II carries as a separate element (below). The body mass and inertia are the whole
+body's in either reading.
 """
 
 from __future__ import annotations
@@ -36,10 +51,11 @@ from ..units import deg
 # Table 6 (basic mechanical properties) ------------------------------------------------------
 BODY_MASS = 20.865  # kg
 BODY_INERTIA = 1.3  # kg m² (pitch)
-LEG_MASS = 0.97  # kg, per physical leg (see module docstring)
-LEG_INERTIA = 0.01  # kg m², per physical leg, about the leg's COM
-LEG_STIFFNESS = 3520.0  # N/m, per physical leg
-LEG_DAMPING = 55.0  # N s/m, per physical leg
+LEG_MASS = 0.97  # kg, per virtual leg (see module docstring)
+LEG_INERTIA = 0.01  # kg m², per virtual leg, about the leg's COM
+LEG_STIFFNESS = 3520.0  # N/m, per virtual leg (Table 2: k_i, i = b, f)
+LEG_DAMPING = 55.0  # N s/m, per virtual leg (Table 2: b_i, i = b, f)
+TABLE6_READING = "virtual"  # how Table 6's leg values are read (module docstring)
 HIP_SEPARATION = 0.552  # m; half spacing L = 0.276 m
 LEG_LENGTH = 0.323  # m, nominal (extension stop)
 
