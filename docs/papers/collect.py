@@ -44,10 +44,23 @@ def _codesign(df: pd.DataFrame) -> pd.DataFrame:
     return codesign_table(df)
 
 
+def _sensor_feasible(df: pd.DataFrame) -> pd.DataFrame:
+    """torque-sensor-study's requirement trials (CMA-ES over FE solves) that meet the requirement,
+    closest to the target twist first (the limits are sensor_requirement.REQUIREMENT's)."""
+    from proleg.papers.sensor_requirement import REQUIREMENT as R
+
+    ok = df[(df["status"] == "success") & (df["gauge_strain"] <= R["max_gauge_strain"]) & (df["safety_factor"] >= R["safety"])
+            & df["twist"].between(R["twist_min"], R["twist_max"])]
+    cols = ["spoke_width", "r_hub", "r_ring", "thickness", "gauge_offset", "twist", "stiffness", "gauge_strain", "safety_factor", "max_von_mises"]
+    return ok.sort_values("twist_error")[cols].head(8).reset_index(drop=True)
+
+
 # scenario -> [(Parquet file in results/NAME/, title, columns to keep, None for all, or a function
 # of the table that derives the one to show)]
 TABLES = {
     "hyq-drop": [("drop.parquet", "Drop test: peaks, settling and differences from the rigid leg (seed 000 Fig. 5, seed 001)", _drop_summary)],
+    "hyq-quasistatic": [("identification.parquet", "Quasi-static cycles: cylinder stiffness k and damping c identified from the "
+                         "force-stroke loops (seed 000 Eqs. 4-5)", None)],
     "hyq-static": [("static.parquet", "Static test: payloads on the slider, pose, cylinder forces and ground reaction", None)],
     "torso-modal": [("table2_comparison.parquet", "Seed 001 Table 2 against the FE model and the identified prototype", None)],
     "flegx-jump": [("metrics.parquet", "Countermovement jump, No. 4, 250×70×3 link: rigid vs PRBM vs Craig–Bampton", None)],
@@ -60,7 +73,9 @@ TABLES = {
                   ("joints.parquet", "Servo torques against the static closed form (moments of distal gravity and foot reaction)", None)],
     "hyq-bushing-study": [("table.parquet", "8-bushing drop against the pins' radial stiffness (a proleg.study)",
                            ["pin_stiffness", "peak_hip_force", "peak_knee_force", "status", "steps", "newton_iterations"])],
-    "torque-sensor-study": [("designs.parquet", "Torque-sensor concepts and the optimised design (seed 001 Problem 2)", None)],
+    "torque-sensor-study": [("designs.parquet", "Torque-sensor concepts and the optimised design (seed 001 Problem 2)", None),
+                            ("requirement_trials.parquet", "Spoke sensor designed to its requirement (about 1° at 140 N m, gauge strain "
+                             "≤ 0.06 %, safety factor ≥ 1): the FE trials that meet it, closest to 1° first", _sensor_feasible)],
 }
 
 

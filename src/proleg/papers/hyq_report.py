@@ -591,13 +591,14 @@ def run_static(out_dir="results/hyq-static", *, progress: bool = False) -> Path:
 
 def run_quasistatic(out_dir="results/hyq-quasistatic", *, progress: bool = False) -> Path:
     """Quasi-static test of the rigid model; writes ``quasistatic.parquet`` (channels),
-    ``identification.csv`` and ``loops.png``; returns the Parquet path."""
+    ``identification.csv`` / ``.parquet`` and ``loops.png``; returns the Parquet path."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     qs = T.quasistatic_test(progress=progress)
     path = out / "quasistatic.parquet"
     qs.tables["channels"].to_parquet(path, index=False)
     qs.tables["identification"].to_csv(out / "identification.csv", index=False)
+    qs.tables["identification"].to_parquet(out / "identification.parquet", index=False)
     loops_figure(qs.tables["channels"]).savefig(out / "loops.png", dpi=120, bbox_inches="tight")
     return path
 
