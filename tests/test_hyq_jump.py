@@ -16,40 +16,39 @@ RATING = 140.0
 
 
 def _samples(nt=100, n=8):
-    """A push with nothing at a limit: torques at half the rating, spool at half, fed chamber at
-    half the supply, the other well above the cavitation floor."""
-    return (np.full((nt, n + 4), 0.5 * RATING), np.full((nt, n), 0.5), np.full((nt, n), 0.5 * PS), np.full((nt, n), 2e6))
+    """A push with nothing at a limit: torques at half the rating, spool at half, the fed chamber
+    at 0.7 p_s and the other at 0.3 p_s."""
+    return (np.full((nt, n + 4), 0.5 * RATING), np.full((nt, n), 0.5), np.full((nt, n), 0.7 * PS), np.full((nt, n), 0.3 * PS))
 
 
 def test_jump_limits_names_each_limit():
     """Each limit is named when it alone is active in a share of the push above LIMIT_SHARE: the
-    torque reference at the rating; the spool at its stop with the fed chamber near the supply
-    (pressure) or far below it (flow: the valve drop is large, the valve passes all it can); a
-    chamber at the cavitation floor counts as pressure."""
-    tau, xv, pf, pmin = _samples()
-    assert jump_limits(tau, xv, pf, pmin, PS, RATING)["limit"] == "none"
+    torque reference at the rating; the whole supply pressure across a piston (fed chamber
+    ≥ 0.9 p_s, the other ≤ 0.1 p_s: pressure), whether or not the spool is at its stop; the
+    spool at its stop with a large valve drop (flow)."""
+    tau, xv, pf, po = _samples()
+    assert jump_limits(tau, xv, pf, po, PS, RATING)["limit"] == "none"
     k = slice(0, 30)  # 30 % of the push
     t2 = tau.copy()
     t2[k, 1] = -RATING
-    m = jump_limits(t2, xv, pf, pmin, PS, RATING)
+    m = jump_limits(t2, xv, pf, po, PS, RATING)
     assert m["limit"] == "torque" and m["share_torque"] == pytest.approx(0.3) and m["share_pressure"] == m["share_flow"] == 0.0
-    x2, p2 = xv.copy(), pf.copy()
-    x2[k, 3], p2[k, 3] = 1.0, 0.95 * PS
-    m = jump_limits(tau, x2, p2, pmin, PS, RATING)
+    x2, f2, o2 = xv.copy(), pf.copy(), po.copy()
+    f2[k, 3], o2[k, 3] = 0.95 * PS, 0.0
+    m = jump_limits(tau, x2, f2, o2, PS, RATING)
     assert m["limit"] == "pressure" and m["share_pressure"] == pytest.approx(0.3) and m["share_flow"] == 0.0
-    p2[k, 3] = 0.6 * PS
-    m = jump_limits(tau, x2, p2, pmin, PS, RATING)
+    x2[k, 3] = 1.0  # the spool at its stop too: still pressure
+    assert jump_limits(tau, x2, f2, o2, PS, RATING)["limit"] == "pressure"
+    f2[k, 3], o2[k, 3] = 0.6 * PS, 0.3 * PS  # spool at its stop across a large drop: flow
+    m = jump_limits(tau, x2, f2, o2, PS, RATING)
     assert m["limit"] == "flow" and m["share_flow"] == pytest.approx(0.3) and m["share_pressure"] == 0.0
-    pm = pmin.copy()
-    pm[k, 0] = 0.0
-    assert jump_limits(tau, xv, pf, pm, PS, RATING)["limit"] == "pressure"
     # the largest share is named; below LIMIT_SHARE nothing is
-    x2[:60, 5], p2[:60, 5] = -1.0, 0.2 * PS
-    assert jump_limits(t2, x2, p2, pmin, PS, RATING)["limit"] == "flow"
+    x2[:60, 5] = -1.0
+    assert jump_limits(t2, x2, f2, o2, PS, RATING)["limit"] == "flow"
     few = int(LIMIT_SHARE * 100) - 1
     t3 = tau.copy()
     t3[:few, 0] = RATING
-    assert jump_limits(t3, xv, pf, pmin, PS, RATING)["limit"] == "none"
+    assert jump_limits(t3, xv, pf, po, PS, RATING)["limit"] == "none"
     # torque sources: no hydraulic columns
     assert jump_limits(t2, np.zeros((100, 0)), np.zeros((100, 0)), np.zeros((100, 0)), 1.0, RATING)["limit"] == "torque"
 

@@ -18,9 +18,12 @@ force loops), by phase:
    crouched height z_c (the trot's stance law: the trunk wrench shared by least norm among the
    feet, τ = −Jᵀ f);
 2. push (``t_start`` ≤ t < ``t_start`` + T): the same virtual model tracks the motion law
-   z_d(s) = z_c + Δz (3/2 s² − 1/2 s³), s = (t − t_start)/T, with its acceleration fed forward
-   (F_z = m (g + z̈_d) + m (ω² (z_d − z) + 2ζω (ż_d − ż))): the trunk accelerates, the law ends
-   at the leg's extension Δz with the speed 3Δz/(2T) and zero acceleration (lift-off);
+   z_d(s) = z_c + Δz (2 s³ − s⁴), s = (t − t_start)/T, with its acceleration fed forward
+   (F_z = m (g + z̈_d) + m (ω² (z_d − z) + 2ζω (ż_d − ż))): the acceleration 12 s (1 − s) Δz/T²
+   rises from zero (a step would make the force loops overshoot the rating: they overshoot a
+   force step by up to 15 %, :func:`proleg.control.hydraulic.hydraulic_servo`), peaks at 3Δz/T²
+   mid-push and falls to zero at the leg's extension Δz, where the trunk has the speed 2Δz/T
+   (lift-off);
 3. flight and landing: a joint PD (300 N m/rad, 30 N m s/rad, hyq-stand's) to the standing
    pose :data:`~proleg.robots.hyq.STANCE`.
 
@@ -38,11 +41,12 @@ What limits the jump (:func:`jump_limits`), over the push until lift-off, per hy
 output sample:
 
 * **torque**: the law's torque reference at the rating (|τ_ref| ≥ 0.99 τ_max);
-* **pressure**: the spool at its stop (|x_v| ≥ 0.98) with the fed chamber near the supply
-  (p ≥ 0.9 p_s: the valve drop is small; more opening would not help, the force capacity p_s A
-  is spent), or a chamber at the cavitation floor;
-* **flow**: the spool at its stop with a large valve drop (the fed chamber below 0.9 p_s): the
-  valve passes all it can and the piston still lags the law (valve saturation).
+* **pressure**: the fed chamber near the supply (p ≥ 0.9 p_s) and the other near the tank or
+  the cavitation floor (≤ 0.1 p_s): the whole supply pressure is across the piston, its force
+  capacity (p_s A_A extending, ≈ 3.2 kN: 145 N m on the 45 mm maximum lever arm, less elsewhere)
+  is spent;
+* **flow**: the spool at its stop (|x_v| ≥ 0.98) without that: the valve passes all it can
+  across a large drop and the piston still lags the law (valve saturation).
 
 Each limit's share is the fraction of the push's samples in which any joint is at it; the
 named ``limit`` is the largest share above :data:`LIMIT_SHARE` (else "none": the motion law,
@@ -69,7 +73,7 @@ TORQUE_AT = 0.99  # |τ_ref| ≥ 0.99 τ_max: at the rating
 SPOOL_AT = 0.98  # |x_v| ≥ 0.98: the spool at its stop
 PRESSURE_AT = 0.9  # fed chamber ≥ 0.9 p_s: the supply's pressure is spent (valve drop ≤ 10 %)
 #: The push designed by :func:`proleg.papers.hyq_jump.optimise_jump` (provisional until the run)
-JUMP_DESIGN = {"jump_t_push": 0.25, "jump_rise": 0.18}
+JUMP_DESIGN = {"jump_t_push": 0.25, "jump_rise": 0.22}
 
 
 @dataclass(frozen=True)
@@ -111,9 +115,9 @@ def jump_torques(law: JumpLaw, t, state, *, joints, feet, base, mass, z_c, q_lan
     s = jnp.clip((t - law.t_start) / T, 0.0, 1.0)
     pushing = (t >= law.t_start) & (t < law.t_start + T)
     on = pushing.astype(jnp.float64)
-    z_d = z_c + dz * (1.5 * s**2 - 0.5 * s**3)
-    zd_d = on * dz * (3.0 * s - 1.5 * s**2) / T
-    zdd_d = on * dz * (3.0 - 3.0 * s) / T**2
+    z_d = z_c + dz * (2.0 * s**3 - s**4)
+    zd_d = on * dz * (6.0 * s**2 - 4.0 * s**3) / T
+    zdd_d = on * dz * (12.0 * s - 12.0 * s**2) / T**2
     r_b, v_b, R, w = state.position(base), state.velocity(base), state.orientation(base), state.angular_velocity(base)
     phi = 0.5 * jnp.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
     F = mass * jnp.array([-law.kv * v_b[0], -law.kv * v_b[1],
@@ -255,27 +259,29 @@ def hyq_jump(t_push: float | None = None, rise: float | None = None, actuators: 
     return run
 
 
-def jump_limits(tau_ref, xv, p_fed, p_min, supply, tau_max, cavitation=0.0, cavitation_width=5e4) -> dict:
+def jump_limits(tau_ref, xv, p_fed, p_out, supply, tau_max) -> dict:
     """What limits a push (module docstring) from its samples: ``tau_ref`` (nt, n) [N m] the law's
     torque references, ``xv`` (nt, m) the spool positions, ``p_fed`` (nt, m) [Pa] the pressure of
-    the chamber the spool feeds from the supply (A for x_v ≥ 0, B else), ``p_min`` (nt, m) [Pa]
-    the lower chamber pressure; ``supply`` p_s [Pa]; ``tau_max`` the rating [N m]. ``xv``,
-    ``p_fed``, ``p_min`` may have m = 0 columns (torque sources).
+    the chamber the spool feeds from the supply (A for x_v ≥ 0, B else) and ``p_out`` (nt, m)
+    that of the other (drained to tank); ``supply`` p_s [Pa]; ``tau_max`` the rating [N m].
+    ``xv``, ``p_fed``, ``p_out`` may have m = 0 columns (torque sources).
+
+    Per sample and joint: torque, |τ_ref| ≥ 0.99 τ_max; pressure, p_fed ≥ 0.9 p_s and
+    p_out ≤ 0.1 p_s (the whole supply pressure across the piston: its force capacity; p_out at
+    the tank or the cavitation floor); flow, the spool at its stop (|x_v| ≥ 0.98) without the
+    pressure condition (the valve passes all it can across a large drop).
 
     Returns ``share_torque``, ``share_pressure``, ``share_flow`` (the fractions of samples in which
     any joint is at that limit), ``limit`` (the largest share ≥ :data:`LIMIT_SHARE`, else "none")."""
-    tau_ref, xv, p_fed, p_min = (np.atleast_2d(np.asarray(a, float)) for a in (tau_ref, xv, p_fed, p_min))
+    tau_ref, xv, p_fed, p_out = (np.asarray(a, float) for a in (tau_ref, xv, p_fed, p_out))
     nt = len(tau_ref)
     torque = np.abs(tau_ref) >= TORQUE_AT * tau_max
     if xv.size:
-        sat = np.abs(xv) >= SPOOL_AT
-        high = p_fed >= PRESSURE_AT * supply
-        cav = p_min <= cavitation + cavitation_width
-        pressure = (sat & high) | cav
-        flow = sat & ~high & ~cav
+        pressure = (p_fed >= PRESSURE_AT * supply) & (p_out <= (1 - PRESSURE_AT) * supply)
+        flow = (np.abs(xv) >= SPOOL_AT) & ~pressure
     else:
         pressure = flow = np.zeros((nt, 1), bool)
-    share = {"torque": float(torque.any(1).mean()), "pressure": float(pressure.any(1).mean()), "flow": float(flow.any(1).mean())}
+    share = {k: float(v.any(1).mean()) if nt else 0.0 for k, v in (("torque", torque), ("pressure", pressure), ("flow", flow))}
     best = max(share, key=share.get)
     return {**{f"share_{k}": v for k, v in share.items()}, "limit": best if share[best] >= LIMIT_SHARE else "none"}
 
@@ -283,7 +289,8 @@ def jump_limits(tau_ref, xv, p_fed, p_min, supply, tau_max, cavitation=0.0, cavi
 def jump_metrics(result) -> dict:
     """height (trunk COM apex above standing) [m], apex (its height) [m], apex_time, takeoff_time
     [s], takeoff_speed [m/s], ballistic_height [m] (z at lift-off + v²/2g − standing: the check of
-    the apex), max_joint_torque [N m], torque_limit [N m], the limit shares and ``limit``
+    the apex), max_joint_torque [N m] (push and flight up to the apex; ``max_joint_torque_all``
+    the whole run, landing included), torque_limit [N m], the limit shares and ``limit``
     (:func:`jump_limits`); hydraulic: supply_pressure, valve_flow, max/min_chamber_pressure [Pa],
     peak_supply_flow [m³/s], hydraulic_energy [J] up to the apex."""
     res = result
@@ -309,7 +316,8 @@ def jump_metrics(result) -> dict:
     m = {"height": float(z[k_ap] - z_stand), "apex": float(z[k_ap]), "apex_time": float(t[k_ap]), "takeoff_time": float(t[k_to]),
          "takeoff_speed": float(vz[k_to]), "ballistic_height": float(z[k_to] + max(vz[k_to], 0.0) ** 2 / (2 * 9.81) - z_stand),
          "lifted_off": bool(air.any()), "standing_height": z_stand, "crouch_height": info["z_c"], "t_push": T,
-         "rise": float(P["variable_jump_rise"]), "torque_limit": tau_max, "max_joint_torque": float(np.abs(tau[after]).max()),
+         "rise": float(P["variable_jump_rise"]), "torque_limit": tau_max, "max_joint_torque": float(np.abs(tau[after & (t <= t[k_ap])]).max()),
+         "max_joint_torque_all": float(np.abs(tau).max()),
          "steps": int(res.stats["steps"])}
     hyd = info["hydraulic"]
     if hyd is None:
@@ -320,11 +328,9 @@ def jump_metrics(result) -> dict:
         out = hydraulic_outputs(res, "cylinders")
         ps = out["supply"].pressure
         pa, pb, xv = out["pressure_a"], out["pressure_b"], out["valve_position"]
-        p_fed = np.where(xv >= 0, pa, pb)
-        cyl = out["cylinder"]
+        p_fed, p_out = np.where(xv >= 0, pa, pb), np.where(xv >= 0, pb, pa)
         ref = np.concatenate([out["torque_reference"], tau[:, ["_haa_" in n for n in names]]], 1)
-        lim = jump_limits(ref[push], xv[push], p_fed[push], np.minimum(pa, pb)[push], ps, tau_max, cyl.cavitation_pressure,
-                          cyl.cavitation_width)
+        lim = jump_limits(ref[push], xv[push], p_fed[push], p_out[push], ps, tau_max)
         upto = t <= t[k_ap]
         m.update(supply_pressure=ps, valve_flow=float(out["valve"].rated_flow), max_chamber_pressure=float(max(pa[upto].max(), pb[upto].max())),
                  min_chamber_pressure=float(min(pa[upto].min(), pb[upto].min())),
