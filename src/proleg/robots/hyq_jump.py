@@ -73,7 +73,7 @@ TORQUE_AT = 0.99  # |τ_ref| ≥ 0.99 τ_max: at the rating
 SPOOL_AT = 0.98  # |x_v| ≥ 0.98: the spool at its stop
 PRESSURE_AT = 0.9  # fed chamber ≥ 0.9 p_s: the supply's pressure is spent (valve drop ≤ 10 %)
 #: The push designed by :func:`proleg.papers.hyq_jump.optimise_jump` (provisional until the run)
-JUMP_DESIGN = {"jump_t_push": 0.25, "jump_rise": 0.22}
+JUMP_DESIGN = {"jump_t_push": 0.23, "jump_rise": 0.24}
 
 
 @dataclass(frozen=True)
