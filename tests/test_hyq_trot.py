@@ -100,3 +100,29 @@ def test_short_trot_hydraulic():
     _check_trot(run, 0.3)
     m = run.metrics
     assert 0.0 <= m["min_chamber_pressure"] and m["max_chamber_pressure"] <= m["supply_pressure"]
+
+
+def test_trot_report_pressure_figures_show_all_eight_cylinders():
+    """The trot report's pressure and flow figures have one panel per leg and joint (4 × 2), each
+    with the A and B chambers of its cylinder (item 3 of issue 33: it showed two cylinders)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from types import SimpleNamespace
+
+    from proleg.papers.hyq_trot_report import pressure_figures
+    from proleg.report import Report
+    from proleg.robots.hyq import LEGS
+
+    names = [f"{leg}_{k}_joint" for leg in LEGS for k in ("hfe", "kfe")]
+    t = np.linspace(0.0, 1.0, 11)
+    ho = {k: np.outer(t, np.arange(1.0, 9.0)) * 1e6 for k in ("pressure_a", "pressure_b")}
+    ho.update({k: np.outer(t, np.arange(1.0, 9.0)) * 1e-5 for k in ("flow_a", "flow_b", "supply_flow")})
+    ho.update(supply=SimpleNamespace(pressure=16e6), cylinder=SimpleNamespace(cavitation_pressure=0.0))
+    rep, seen = Report("t"), []
+    rep.add_figure = lambda fig, caption="": seen.append(([ax.get_title() for ax in fig.axes], [len(ax.lines) for ax in fig.axes]))
+    pressure_figures(rep, t, ho, names)
+    titles, lines = seen[0]
+    assert sorted(titles) == sorted(f"{leg} {k}" for leg in LEGS for k in ("HFE", "KFE"))
+    assert all(n == 4 for n in lines)  # p_A, p_B, the supply and the cavitation floor
+    assert len(seen[1][0]) == 8 and all(n == 2 for n in seen[1][1])  # Q_A, Q_B
