@@ -225,7 +225,7 @@ def run_jump(out_dir="results/hyq-jump", progress: bool = True, *, n_trials: int
         f"{design['jump_rise']:.3f} m{(' (at a bound: ' + ', '.join(opt['binding']) + ')') if opt and opt['binding'] else ''}.\n\n"
         f"**Height reached** (trunk COM apex above standing): hydraulic **{h['height']:.3f} m**, lift-off at "
         f"{h['takeoff_speed']:.2f} m/s (ballistic check {h['ballistic_height']:.3f} m); the same law on ideal torque sources "
-        f"{tq['height']:.3f} m. Seed 001 claims HyQ \"jumps up to 0.5 m\" (its height measure is not stated; compared, not tuned to).\n\n"
+        f"{tq['height']:.3f} m. Seed 001 (Introduction) claims HyQ \"jumping up to 0.5m\" (its height measure is not stated; compared, not tuned to).\n\n"
         f"**What limits it**: {named} (shares of the push's samples with a joint at each limit: torque {h['share_torque']:.2f}, "
         f"pressure {h['share_pressure']:.2f}, flow {h['share_flow']:.2f}; largest joint torque {h['max_joint_torque']:.1f} N m, chamber "
         f"pressures {h['min_chamber_pressure'] / 1e6:.2f}-{h['max_chamber_pressure'] / 1e6:.2f} MPa, spool up to {h['spool_max']:.2f}). "
