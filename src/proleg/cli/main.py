@@ -20,6 +20,7 @@ SCENARIOS = {
     "hyq-drop": ("proleg.papers.hyq_report", "run_drop", "HyQ leg drop test: rigid vs 4 vs 8 bushings, HTML report (main job)"),
     "hyq-stand": ("proleg.papers.hyq_stand", "run_stand", "Whole HyQ (URDF) dropped 10 cm onto four feet: GRF vs weight share, torques vs statics, 3D animation"),
     "hyq-trot": ("proleg.papers.hyq_trot_report", "run_trot", "Whole HyQ trots at 1 m/s on hydraulic cylinders (pressures, flows, energy) beside ideal torque sources"),
+    "hyq-jump": ("proleg.papers.hyq_jump", "run_jump", "Whole HyQ vertical jump on hydraulic cylinders, push designed by CMA-ES: height and what limits it (torque, pressure, flow)"),
     "hyq-static": ("proleg.papers.hyq_report", "run_static", "HyQ leg static test, payload 0/3/7 kg"),
     "hyq-quasistatic": ("proleg.papers.hyq_report", "run_quasistatic", "HyQ leg quasi-static cycles: force-stroke loops"),
     "scout2-bound": ("proleg.papers.scout2_report", "run_bound", "Scout II bounding: Model I vs Model II, low speed, gait metrics, HTML report"),

@@ -45,7 +45,7 @@ State (``result.controller(name).state``; :func:`hydraulic_outputs` names the co
 
 from __future__ import annotations
 
-import math
+import dataclasses
 
 import jax.numpy as jnp
 import numpy as np
@@ -94,7 +94,7 @@ def pd_reference(joints, setpoint, kp, kd, feedforward=None):
 def hydraulic_servo(
     name, joints, actuators, piston, *, cylinder=None, valve=None, supply=None, reference=None,
     period=1e-3, outer_period=None, substeps=8, force_gain=0.4, velocity_gain=1.0, translation=False,
-    initial_force=None, x0=None, valve_command=None, relief=None, compensation="load",
+    initial_force=None, x0=None, valve_command=None, relief=None, compensation="load", variables=None,
 ):
     """One sampled controller owning the cylinders of ``joints`` (module docstring).
 
@@ -124,6 +124,12 @@ def hydraulic_servo(
     x0 : (n,) initial joint coordinates (default: read at the first sample)
     valve_command : function t → (n,) spool command in [−1, 1], replacing the force loop (open
         loop: valve tests)
+    variables : dict, optional, {"supply_pressure": name, "valve_flow": name}: read the supply
+        pressure p_s [Pa] and the valve's rated flow Q_N [m³/s] from the model's design variables
+        ``name`` (``model.add_variable``; ``state.variable``) in place of ``supply.pressure`` and
+        ``valve.rated_flow``, so that variants (a larger supply, a larger valve) share one
+        compiled simulation (``system.with_params``, a vmapped study). The initial pressures
+        still come from ``supply``.
     """
     cyl = cylinder or H.Cylinder()
     val = valve or H.ServoValve()
@@ -153,7 +159,6 @@ def hydraulic_servo(
     ps = sup.pressure
     f_max = ps * aa
     f_max_ext, f_max_ret = (ps - sup.tank) * aa, (ps - sup.tank) * ab
-    kv = val.flow_gain
     # initial pressures: the rod force F0 with p_A at mid supply (the null valve holds any pair)
     f0 = np.zeros(n) if initial_force is None else np.broadcast_to(np.asarray(initial_force, float), (n,))
     pa0 = np.clip(0.5 * ps + 0.5 * f0 / aa, 0.05 * ps, 0.95 * ps)
@@ -173,7 +178,25 @@ def hydraulic_servo(
             return th, jnp.stack([_translation_rate(state, j) for j in joints])
         return jnp.stack([state.joint_angle(j) for j in joints]), jnp.stack([state.joint_rate(j) for j in joints])
 
+    live = dict(variables or {})
+    unknown = set(live) - {"supply_pressure", "valve_flow"}
+    if unknown:
+        raise ModelError(f"hydraulic_servo '{name}': variables takes 'supply_pressure' and 'valve_flow', got {sorted(unknown)}.")
+
+    def parts(state):
+        """(valve, supply, F_max, F_ext, F_ret): the build-time ones, or those of the variables."""
+        if not live:
+            return val, sup, f_max, f_max_ext, f_max_ret
+        s_, v_ = sup, val
+        if "supply_pressure" in live:
+            s_ = dataclasses.replace(sup, pressure=state.variable(live["supply_pressure"]))
+        if "valve_flow" in live:
+            v_ = dataclasses.replace(val, rated_flow=state.variable(live["valve_flow"]))
+        return v_, s_, s_.pressure * aa, (s_.pressure - s_.tank) * aa, (s_.pressure - s_.tank) * ab
+
     def update(t, state, z):
+        val, sup, f_max, f_max_ext, f_max_ret = parts(state)
+        ps, kv = sup.pressure, val.flow_gain
         Z = jnp.reshape(z, (len(FIELDS), n))
         g = lambda k: Z[_I[k]]  # noqa: E731
         th, thd = coords(state)
@@ -196,7 +219,7 @@ def hydraulic_servo(
         if compensation == "load":
             u_ss = jnp.sign(xdot) * jnp.minimum(H.required_opening(cyl, val, sup, xdot, f_ref), 1.0)
         else:
-            u_ss = jnp.where(xdot > 0, aa, ab) * xdot / (kv * math.sqrt(0.5 * ps))
+            u_ss = jnp.where(xdot > 0, aa, ab) * xdot / (kv * jnp.sqrt(0.5 * ps))
         u = force_gain * (f_ref - F) / f_max + velocity_gain * u_ss
         if valve_command is not None:
             u = jnp.asarray(valve_command(t), jnp.float64) * jnp.ones(n)
@@ -226,7 +249,8 @@ def hydraulic_servo(
         return z_new, {a: F_hold[k] * dxdth[k] for k, a in enumerate(actuators)}
 
     ctrl = DiscreteController(name, update, z0.ravel(), actuators, period=period)
-    ctrl.hydraulic = dict(cylinder=cyl, valve=val, supply=sup, relief=rel, joints=joints, n=n, piston=piston, translation=translation)
+    ctrl.hydraulic = dict(cylinder=cyl, valve=val, supply=sup, relief=rel, joints=joints, n=n, piston=piston, translation=translation,
+                          variables=live)
     return ctrl
 
 
@@ -234,7 +258,8 @@ def hydraulic_outputs(result, name) -> dict:
     """The servo's hydraulic outputs at the output times: a dict of (nt, n) arrays, one per
     :data:`FIELDS` entry, plus ``compression_energy`` [J] (Σ V Φ(y)/β per cylinder,
     :func:`proleg.drives.hydraulics.compression_energy`),
-    ``torque`` [N m] (the held output) and the element's ``cylinder``, ``valve``, ``supply``."""
+    ``torque`` [N m] (the held output) and the element's ``cylinder``, ``valve``, ``supply`` (with
+    the result's values of the servo's ``variables``)."""
     ctrl = None
     for g in result.system.topo.extensions:
         if g.kind == "controller" and name in g.names:
@@ -249,5 +274,11 @@ def hydraulic_outputs(result, name) -> dict:
     out["torque"] = st[:, len(FIELDS) * n :]
     cyl = info["cylinder"]
     out["compression_energy"] = np.asarray(H.compression_energy(cyl, out["piston_position"], out["oil_a"], out["oil_b"]))
-    out.update(cylinder=cyl, valve=info["valve"], supply=info["supply"], relief=info.get("relief"))
+    val, sup = info["valve"], info["supply"]
+    live = info.get("variables") or {}
+    if "supply_pressure" in live:  # the variant's values (hydraulic_servo(variables=...))
+        sup = dataclasses.replace(sup, pressure=float(result.system.params[f"variable_{live['supply_pressure']}"]))
+    if "valve_flow" in live:
+        val = dataclasses.replace(val, rated_flow=float(result.system.params[f"variable_{live['valve_flow']}"]))
+    out.update(cylinder=cyl, valve=val, supply=sup, relief=info.get("relief"))
     return out

@@ -17,6 +17,42 @@ from ..robots.hyq import LEGS
 from ..robots.hyq_trot import RATING, hyq_trot
 
 
+def pressure_figures(rep, t, ho, names):
+    """All eight cylinders, one panel per leg and joint (4 legs × HFE, KFE): chamber pressures
+    p_A, p_B against the supply and the cavitation floor, and the valve flows Q_A, Q_B; then the
+    total supply flow (the pump's demand)."""
+    import matplotlib.pyplot as plt
+
+    ps = ho["supply"].pressure / 1e6
+    for key, unit, scale, title in (("pressure", "MPa", 1e-6, "Chamber pressures p_A (piston side) and p_B (rod side) of all eight "
+                                     f"cylinders, per leg (rows) and joint (columns), against the {ps:.0f} MPa supply (dashed)"),
+                                    ("flow", "l/min", 6e4, "Valve flows Q_A, Q_B into the chambers of all eight cylinders")):
+        fig, axs = plt.subplots(len(LEGS), 2, figsize=(10, 9), sharex=True, sharey=True)
+        for i, leg in enumerate(LEGS):
+            for j, kind in enumerate(("hfe", "kfe")):
+                k = names.index(f"{leg}_{kind}_joint")
+                ax = axs[i, j]
+                ax.plot(t, ho[f"{key}_a"][:, k] * scale, lw=0.8, label="A")
+                ax.plot(t, ho[f"{key}_b"][:, k] * scale, lw=0.8, label="B")
+                if key == "pressure":
+                    ax.axhline(ps, color="k", ls="--", lw=0.8)
+                    ax.axhline(ho["cylinder"].cavitation_pressure / 1e6, color="grey", ls=":", lw=0.8)
+                ax.set_title(f"{leg} {kind.upper()}", fontsize=8)
+                if j == 0:
+                    ax.set_ylabel(unit)
+        axs[0, 0].legend(fontsize=7, ncol=2)
+        for ax in axs[-1]:
+            ax.set_xlabel("time [s]")
+        rep.add_figure(fig, title)
+        plt.close(fig)
+    fig, ax = plt.subplots(figsize=(9, 2.6))
+    ax.plot(t, ho["supply_flow"].sum(1) * 6e4)
+    ax.set_ylabel("supply flow [l/min]")
+    ax.set_xlabel("time [s]")
+    rep.add_figure(fig, "Total flow drawn from the supply: the pump flow the motion needs")
+    plt.close(fig)
+
+
 def run_trot(out_dir="results/hyq-trot", progress: bool = True, *, speed: float = 1.0, t_end: float | None = None) -> Path:
     """Both trots (hydraulic and torque), Parquet, CSV metrics and the HTML report."""
     import matplotlib
@@ -108,23 +144,8 @@ def run_trot(out_dir="results/hyq-trot", progress: bool = True, *, speed: float 
     axs[-1].set_xlabel("time [s]")
     rep.add_figure(fig, f"Joint torques (front legs) against the {RATING:g} N m rating")
     plt.close(fig)
-    ho = hydraulic_outputs(runs["hydraulic"].result, "cylinders")
-    t = runs["hydraulic"].result.t
     names = runs["hydraulic"].result.system.topo.model.trot["hydraulic"].hydraulic["joints"]
-    fig, ax = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
-    for k in (0, 1):
-        ax[0].plot(t, ho["pressure_a"][:, k] / 1e6, label=f"{names[k]} A")
-        ax[0].plot(t, ho["pressure_b"][:, k] / 1e6, label=f"{names[k]} B")
-        ax[1].plot(t, ho["flow_a"][:, k] * 6e4, label=f"{names[k]} Q_A")
-    ax[0].axhline(ho["supply"].pressure / 1e6, color="k", ls="--")
-    ax[0].set_ylabel("pressure [MPa]")
-    ax[0].legend(fontsize=7, ncol=2)
-    ax[1].set_ylabel("valve flow [l/min]")
-    ax[2].plot(t, ho["supply_flow"].sum(1) * 6e4, label="total supply flow")
-    ax[2].set_ylabel("supply flow [l/min]")
-    ax[2].set_xlabel("time [s]")
-    rep.add_figure(fig, "Chamber pressures, valve flows and the pump flow the trot needs")
-    plt.close(fig)
+    pressure_figures(rep, runs["hydraulic"].result.t, ho, names)
     bal = {
         "drawn from the supply [J]": h["hydraulic_energy"], "valve throttling loss [J]": h["valve_loss"],
         "relief valve loss [J]": h["relief_loss"], "leakage loss [J]": h["leakage_loss"], "change of oil compression energy [J]": h["compression_energy_change"],

@@ -14,11 +14,15 @@ in :mod:`proleg.papers`, which imports these builders; nothing here imports it.
   contacts (:mod:`proleg.robots.hyq`; its stand scenario, ``proleg run hyq-stand``, is in :mod:`proleg.papers.hyq_stand`).
 - :func:`hyq_trot`: the whole HyQ trotting on hydraulic cylinders with chamber pressures or on
   ideal torque sources (:mod:`proleg.robots.hyq_trot`); scenario ``proleg run hyq-trot``.
+- :func:`hyq_jump`: the whole HyQ's vertical jump on the cylinders, its height and what limits
+  it (:mod:`proleg.robots.hyq_jump`; the push's co-design in :mod:`proleg.papers.hyq_jump`;
+  scenario ``proleg run hyq-jump``).
 """
 
 from .hyq_leg import hyq_leg as hyq_leg
 from .hyq import hyq as hyq
 from .hyq_trot import hyq_trot as hyq_trot
+from .hyq_jump import hyq_jump as hyq_jump
 from .flegx import flegx as flegx
 from .scout2 import scout2 as scout2
 from .sensor_fe import mesh_convergence as torque_sensor_convergence
