@@ -17,9 +17,14 @@ Modes (``--modes``):
 Columns: ``peak maps`` (sampled every 0.2 s by a thread, and after every model), ``limit / 2``
 (half the kernel's vm.max_map_count, the target), ``peak RSS``, ``maps/model`` and
 ``RSS/model`` over the first models (before any clear), ``clears`` (memguard's cache clears;
-the processes mode counts them from the workers' map drops), wall time. Run it niced: it is CPU heavy.
+the processes mode counts them from the workers' map drops), ``recycles`` (processes: worker
+pools replaced because a worker stayed above its threshold after clearing), wall time. Run it
+niced: it is CPU heavy. The thresholds are memguard's (``PROLEG_MAX_MAPS``,
+``PROLEG_MAX_RSS_BYTES``; printed with the table); a lower RSS threshold shows the bound at a
+smaller N:
 
     nice -n 10 python bench/memory_maps.py --n 300
+    PROLEG_MAX_RSS_BYTES=1610612736 nice -n 10 python bench/memory_maps.py --n 45 --modes loop,processes
 """
 
 from __future__ import annotations
@@ -110,13 +115,13 @@ def run_loop(n):
     trace = []
     with Sampler() as s:
         for i, L in enumerate(lengths(n)):
-            r = pl.simulate(pl.assemble(pl.robots.hyq_leg(joints="bushings8", cylinder_length=float(L))), t_end=T_END,
+            pl.simulate(pl.assemble(pl.robots.hyq_leg(joints="bushings8", cylinder_length=float(L))), t_end=T_END,
                             dt_output=DT_OUT, progress=False)
             s.sample()
             trace.append((_maps(), _rss()))
             if i % 10 == 0:
                 log(f"loop {i}/{n}: maps {trace[-1][0]}, RSS {trace[-1][1] / 2**20:.0f} MiB, clears {memguard.clears()}")
-    return s, trace, memguard.clears(), n
+    return s, trace, memguard.clears(), n, 0
 
 
 def run_study(n, executor):
@@ -132,6 +137,9 @@ def run_study(n, executor):
         if len(trace) % 10 == 0:
             log(f"{executor} {len(trace)} batches")
 
+    from proleg.study.executors import recycled_pools
+
+    recycled = recycled_pools()
     with Sampler(children=executor == "processes") as s:
         tab = st.run(design="grid", executor=executor, batch_size=1, workers=2 if executor == "processes" else 1,
                      progress=False, on_batch=on_batch)
@@ -141,8 +149,8 @@ def run_study(n, executor):
         from proleg.study.executors import shutdown_pools
 
         shutdown_pools()
-        return s, [], s.drops, ok
-    return s, trace, memguard.clears(), ok
+        return s, [], s.drops, ok, recycled_pools() - recycled
+    return s, trace, memguard.clears(), ok, 0
 
 
 def per_model(trace, k=4):
@@ -170,23 +178,23 @@ def main():
         t0 = time.perf_counter()
         if mode == "unguarded":
             os.environ["PROLEG_MAX_MAPS"] = os.environ["PROLEG_MAX_RSS_BYTES"] = str(2**62)
-            s, trace, clears, ok = run_loop(args.n)
+            s, trace, clears, ok, recycles = run_loop(args.n)
             os.environ.pop("PROLEG_MAX_MAPS")
             os.environ.pop("PROLEG_MAX_RSS_BYTES")
         elif mode == "loop":
-            s, trace, clears, ok = run_loop(args.n)
+            s, trace, clears, ok, recycles = run_loop(args.n)
         else:
-            s, trace, clears, ok = run_study(args.n, "local" if mode == "builder" else "processes")
+            s, trace, clears, ok, recycles = run_study(args.n, "local" if mode == "builder" else "processes")
         dm, dr = per_model(trace)
         rows.append({"mode": mode, "models": args.n, "succeeded": ok, "peak maps": s.peak_maps, "limit / 2": limit // 2,
                      "peak RSS [MiB]": round(s.peak_rss / 2**20), "maps/model": dm, "RSS/model [MiB]": dr,
-                     "clears": clears, "wall [s]": round(time.perf_counter() - t0, 1),
+                     "clears": clears, "recycles": recycles, "wall [s]": round(time.perf_counter() - t0, 1),
                      "status": "ok" if s.peak_maps < limit // 2 else "OVER"})
         log(rows[-1])
         jax.clear_caches()
     mmaps, mrss = memguard.limits()
     emit(args, "Memory maps and RSS over many distinct HyQ-leg models", rows,
-         ["mode", "models", "succeeded", "peak maps", "limit / 2", "peak RSS [MiB]", "maps/model", "RSS/model [MiB]", "clears", "wall [s]", "status"],
+         ["mode", "models", "succeeded", "peak maps", "limit / 2", "peak RSS [MiB]", "maps/model", "RSS/model [MiB]", "clears", "recycles", "wall [s]", "status"],
          meta={"memguard maps threshold": mmaps, "memguard RSS threshold [MiB]": mrss // 2**20, "vm.max_map_count": limit})
 
 

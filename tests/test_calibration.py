@@ -7,8 +7,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from proleg.errors import DataError
-from proleg.identify.calibration import Calibrated, calibrate, check_held_out, split_scores
+from proleg.errors import ConvergenceError, DataError
+from proleg.identify.calibration import Calibrated, calibrate, check_held_out, fit_to, held_out_score, split_scores
 
 
 def spring_mass_hz(k, m=2.0):
@@ -36,7 +36,7 @@ def test_target_outside_range_ends_on_a_bound():
         calibrate(spring_mass_hz, name="k", bounds=(0.0, 1e4), unit="N/m", target=1.0, fitted_on="f1", source="s")
 
 
-def test_held_out_score_uses_only_held_out_data():
+def test_split_scores_keep_the_held_out_prediction_apart():
     """Two masses on one spring type: k fitted on mass A's frequency, mass B's predicted. The
     predicted table holds B only; scoring A as validation is refused."""
     k_true = 3e4
@@ -60,10 +60,6 @@ def test_held_out_score_uses_only_held_out_data():
 
 # -- fit_to / held_out_score (Scout II's leg friction) --
 
-
-
-from proleg.errors import ConvergenceError, DataError  # noqa: E402,F811
-from proleg.identify.calibration import Calibrated, fit_to, held_out_score  # noqa: E402,F811
 
 A_TRUE = 2.37  # synthetic "truth": y(x) = a x² + sin(a)
 

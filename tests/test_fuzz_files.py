@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import proleg as pl
@@ -189,8 +189,18 @@ def test_valid_model_files_round_trip(d):
     check_roundtrip(d)
 
 
+_LIST_TYPED = """name: a
+parts:
+- {name: p0, mass: 1.0, inertia: [1.0, 1.0, 1.0], position: [0.5, 0.0, 0.0]}
+joints:
+- {type: [], name: j0, i: ground, j: p0, at: [0.0, 0.0, 0.0], axis: [0, 1, 0]}
+"""
+
+
 @FAST
 @given(broken_model_texts())
+@example(_LIST_TYPED)  # the 10,000-example run found it: an unhashable type raised TypeError
+@example(_LIST_TYPED.replace("joints:", "forces:").replace("type: []", "type: {a: 1}"))
 def test_broken_model_files_give_model_error_with_line(text):
     check_broken_model(text)
 
@@ -284,8 +294,18 @@ def check_urdf(text, floating):
         shutil.rmtree(tmp, ignore_errors=True)
 
 
+_NAN_SPHERE = """<?xml version="1.0"?>
+<robot name="r">
+<link name="l0">
+<inertial><origin xyz="0 0 -0.1" rpy="0 0 0"/><mass value="1.0"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.001"/></inertial>
+<collision><geometry><sphere radius="nan"/></geometry></collision>
+</link>
+</robot>"""
+
+
 @FAST
 @given(urdf_texts(), st.booleans())
+@example(_NAN_SPHERE, True)  # the 10,000-example run found it: a NaN foot radius raised LinAlgError
 def test_urdf_files(text, floating):
     check_urdf(text, floating)
 

@@ -10,7 +10,6 @@ motor). Power at the motor shaft K_T i ω_m = leg power τ φ̇ + loss, with
 both ≥ 0; the electrical power V_t i = R_a i² + K_ω ω_m i closes the balance with K_ω = K_T.
 """
 
-import dataclasses
 
 import jax.numpy as jnp
 import numpy as np

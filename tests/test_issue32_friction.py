@@ -17,6 +17,17 @@ import proleg as pl
 from proleg.errors import ModelError, ProlegWarning
 from proleg.io.urdf import UrdfWarning, load_urdf
 
+EPS = np.finfo(np.float64).eps
+# Two routes to one rotation matrix (three sin/cos pairs and a product of three matrices, or
+# SciPy's quaternions): each entry within a few ulp of 1 of the exact value, differently on
+# another libm, BLAS or vector width. Measured ≤ 2 eps apart; asserted at 16 eps (3.6e-15),
+# while a wrong axis order or sign is off by 0.1 or more at these angles.
+ROT_ATOL = 16 * EPS
+# An entry that is exactly 0 at 90°: cos(fl(π/2)) = 6.1e-17 is the closest any double gets, and
+# a degree-to-radian product rounded the other way moves it by one ulp of π/2 (2.2e-16):
+# ≤ 2.8e-16 < 2 eps whatever the libm (measured 0.28 eps).
+RIGHT_ANGLE_ATOL = 2 * EPS
+
 DATA = Path(__file__).parent / "data" / "two_link.urdf"
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -412,10 +423,10 @@ def test_rpy_deg_is_fixed_axis_xyz():
     rng = np.random.default_rng(32)
     for rpy in rng.uniform([-180, -89, -180], [180, 89, 180], (50, 3)):
         R = matrix_from_rpy_deg(rpy)
-        np.testing.assert_allclose(R, Rotation.from_euler("xyz", rpy, degrees=True).as_matrix(), atol=1e-15)
+        np.testing.assert_allclose(R, Rotation.from_euler("xyz", rpy, degrees=True).as_matrix(), atol=ROT_ATOL)
         # euler_zyx_deg reads the same angles back (as yaw, pitch, roll)
         np.testing.assert_allclose(euler_zyx_deg(p_from_matrix(R))[::-1], rpy, atol=1e-9)
-    np.testing.assert_allclose(matrix_from_rpy_deg([0, 0, 90]), [[0, -1, 0], [1, 0, 0], [0, 0, 1]], atol=1e-16)
+    np.testing.assert_allclose(matrix_from_rpy_deg([0, 0, 90]), [[0, -1, 0], [1, 0, 0], [0, 0, 1]], atol=RIGHT_ANGLE_ATOL)
 
 
 def test_rpy_deg_in_a_model_file(tmp_path):
@@ -433,8 +444,8 @@ markers:
     from scipy.spatial.transform import Rotation
 
     model = load_model(f)
-    np.testing.assert_allclose(model.part("a").orientation, Rotation.from_euler("xyz", [10, -20, 30], degrees=True).as_matrix(), atol=1e-15)
-    np.testing.assert_allclose(model.marker("m").orientation, [[0, 0, 1], [0, 1, 0], [-1, 0, 0]], atol=1e-15)
+    np.testing.assert_allclose(model.part("a").orientation, Rotation.from_euler("xyz", [10, -20, 30], degrees=True).as_matrix(), atol=ROT_ATOL)
+    np.testing.assert_allclose(model.marker("m").orientation, [[0, 0, 1], [0, 1, 0], [-1, 0, 0]], atol=RIGHT_ANGLE_ATOL)
     f.write_text(text.replace("rpy_deg: [0, 90, 0]", "rpy_deg: [0, 90, 0], orientation: [1, 0, 0, 0]"))
     with pytest.raises(ModelError, match="rpy_deg, not both"):
         load_model(f)
@@ -457,11 +468,17 @@ def test_four_bar_example_in_rpy_deg_is_the_old_model():
     assert not any("orientation:" in ln for ln in body) and sum("rpy_deg:" in ln for ln in body) == 3
     model = load_model(ROOT / "examples" / "four_bar.yaml")
     for name, R in old.items():
-        np.testing.assert_allclose(model.part(name).orientation, R, atol=3e-16)
+        # each entry within an ulp of the exact one (libm's sin/cos ≤ 1 ulp, the 16-digit
+        # literals ≤ 0.5 ulp): measured ≤ 0.5 eps, asserted at 4 eps; a degree value off by
+        # 1e-13 deg (1.7e-15 rad) would be off by 8 eps
+        np.testing.assert_allclose(model.part(name).orientation, R, atol=4 * EPS)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ProlegWarning)  # the loop's 3 redundant equations
         system = pl.assemble(model)
-    assert system.topo.dof["initial_residual"][0] < 1e-15
+    # Φ = r_i + A_i s_i − r_j − A_j s_j: four terms of ≤ 0.4 m with rotation entries within a few
+    # eps and 16-digit coordinates, so the loop closes to a few eps × 0.4 m; 32 eps × 0.4 m
+    # (2.8e-15 m) is round-off in any summation order, a pose off by 1 µm is 1e-6
+    assert system.topo.dof["initial_residual"][0] < 32 * EPS * 0.4
 
 
 # ---------------------------------------------------------------------------------------------

@@ -50,14 +50,20 @@ def _energy_error(r):
 
 def test_energy_follows_rtol_and_loop_holds(sc):
     """rtol 1e-5 → 1e-8 (atol = rtol/10): the energy-balance error falls at least 100×, and every
-    joint equation of the absolute model holds to 1e-9 at every output (the GGL form enforces
-    Φ = 0 and Φ_q v + Φ_t = 0 at each stage, to the Newton tolerance). Measured: 1.7e-6 and
+    joint equation of the absolute model holds to atol + rtol max|q| at every output (the GGL
+    form enforces Φ = 0 and Φ_q v + Φ_t = 0 at each stage, to the Newton tolerance). Measured: 1.7e-6 and
     1.5e-9 (1100×), |Φ| ≤ 1.3e-11."""
     times = np.linspace(0.0, T_END, 21)
     runs = [pl.simulate(sc, t_end=T_END, output_times=times, integrator=pl.Radau5(rtol=rtol, atol=rtol / 10)) for rtol in (1e-5, 1e-8)]
     errs = [_energy_error(r) for r in runs]
     assert errs[0] / errs[1] >= 100.0, errs
-    assert np.max(runs[1].constraint_residual()) <= 1e-9
+    # Radau5 has no constraint tolerance of its own: Φ = 0 is a stage equation, solved by Newton
+    # to fnewt·(atol + rtol|y|), fnewt ≤ 0.03 (solvers/radau.py), and an output between the
+    # stages lies on the collocation polynomial, within the error control's atol + rtol|q| of the
+    # solution. The links are ≤ 1 m long (|Φ_q| ≤ ~1), so |Φ| ≤ atol + rtol max|q| (≥ 1e-9),
+    # against 1.3e-11 measured.
+    q_max = np.abs(np.asarray(runs[1].q)).max()
+    assert np.max(runs[1].constraint_residual()) <= 1e-9 + 1e-8 * q_max  # atol + rtol max|q| of the tight run
     assert runs[1].coordinates == "planar" and runs[1].stats["steps"] > 0
 
 

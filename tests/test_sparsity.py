@@ -10,7 +10,6 @@ from pathlib import Path
 import jax
 import jax.numpy as jnp
 import numpy as np
-import pytest
 
 import proleg as pl
 from proleg.assembly.system import constraints, generalized_forces, mass_action

@@ -144,7 +144,7 @@ def test_failures_are_rows_and_the_study_goes_on(system):
 def test_a_builder_study_groups_variants_by_shape():
     def build(links, k):
         m = pl.Model(f"chain{int(links)}", gravity=(0, 0, -9.81))
-        prev, at = m.ground, (0, 0, 0)
+        prev = m.ground
         for i in range(int(links)):
             p = m.add_part(f"p{i}", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(i + 0.5, 0, 0))
             m.add_joint(pl.Revolute(f"j{i}", prev, p, at=(i, 0, 0), axis=(0, 1, 0)))

@@ -5,7 +5,6 @@ the gradient refinement improving on its start.
 """
 
 import numpy as np
-import pandas as pd
 import pytest
 
 import proleg as pl

@@ -2,7 +2,8 @@
 
 - :mod:`proleg.memguard` clears the compiled code of a process past its map or memory threshold,
   so a loop over new models stays bounded (measured in bench/memory_maps.py: ~750 maps and
-  ~100 MB per new HyQ leg, maps plateau near 12,800, memory does not);
+  ~100 MB per new HyQ leg, maps plateau near 12,800, memory does not), and hands the freed heap
+  back to the kernel; a study's worker that stays above its threshold is replaced;
 - the "processes" executor: a worker killed mid-study (SIGKILL, as the OOM killer does) has its
   batches run again, every variant stored exactly once; a variant that kills its worker every
   time is stored once as "worker_died" with the reason, and the study goes on.
@@ -42,6 +43,139 @@ def test_memguard_clears_compiled_code_past_its_threshold(monkeypatch):
     monkeypatch.setenv("PROLEG_MAX_MAPS", "nonsense")  # a bad setting falls back to the default
     assert memguard.limits()[0] == memguard.max_map_count() // 4
     assert memguard.memory_maps() > 10 and memguard.rss_bytes() > 0
+
+
+def test_release_returns_the_freed_heap_to_the_kernel():
+    """After a clear the executables' pages are free but stay in glibc's heap, so the resident
+    memory did not fall (bench/memory_maps.py: 1,485 → 1,440 MiB); memguard.release hands them
+    back (→ 387 MiB). Here 150 MiB of 1 KiB blocks, freed below one block that stays allocated
+    (so free() cannot trim them from the top of the heap): the trim must return ≥ 100 MiB."""
+    import ctypes
+    import ctypes.util
+
+    libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+    if not hasattr(libc, "malloc_trim"):
+        pytest.skip("not glibc: no malloc_trim (memguard skips the trim there too)")
+    libc.malloc.restype, libc.malloc.argtypes = ctypes.c_void_p, [ctypes.c_size_t]
+    libc.free.argtypes = [ctypes.c_void_p]
+    blocks = []
+    for _ in range(150 * 1024):
+        b = libc.malloc(1024)
+        ctypes.memset(b, 1, 1024)  # touched: resident
+        blocks.append(b)
+    for b in blocks[:-1]:
+        libc.free(b)
+    held = memguard.rss_bytes()
+    assert memguard._trim_heap()
+    freed = held - memguard.rss_bytes()
+    libc.free(blocks[-1])
+    assert freed > 100 * 2**20, f"the trim returned {freed / 2**20:.0f} MiB of 150"
+
+
+def test_memguard_default_rss_threshold_and_worker_share(monkeypatch):
+    """Default: a quarter of the memory, at most MAX_RSS_DEFAULT; a worker of a pool of W: at
+    most 1/(2W) of the memory; PROLEG_MAX_RSS_BYTES wins over both."""
+    monkeypatch.delenv("PROLEG_MAX_RSS_BYTES", raising=False)
+    monkeypatch.setattr(memguard, "_total_memory", lambda: 64 * 2**30)
+    monkeypatch.setattr(memguard, "_share", {"workers": 0})
+    assert memguard.limits()[1] == memguard.MAX_RSS_DEFAULT == 4 * 2**30
+    monkeypatch.setattr(memguard, "_total_memory", lambda: 8 * 2**30)
+    assert memguard.limits()[1] == 2 * 2**30
+    memguard.set_worker_share(4)
+    assert memguard.limits()[1] == 2**30
+    monkeypatch.setenv("PROLEG_MAX_RSS_BYTES", str(3 * 2**30))
+    assert memguard.limits()[1] == 3 * 2**30
+
+
+def _square(x):
+    return {"y": x * x}
+
+
+def _worker_pids(rows):
+    return [w.rsplit(":", 1)[-1] for w in rows["worker"]]
+
+
+def test_a_worker_above_its_memory_threshold_is_replaced(tmp_path, monkeypatch):
+    """Real worker processes: with PROLEG_MAX_RSS_BYTES = 1 byte every worker stays above its
+    threshold after clearing its compiled code, so each batch's worker asks to be replaced and
+    the pool is started anew: 3 batches on 1 worker run in 3 processes, every variant once and
+    right. The same study with the default threshold runs all 3 in one process."""
+    from proleg.study import executors as ex
+
+    st = pl.study.Study.function(_square, {"x": [2.0, 3.0, 5.0]}, ["y"])
+
+    def run(name):
+        ex.shutdown_pools()  # a fresh pool: its workers read the environment at spawn
+        recycled = ex.recycled_pools()
+        st.run(design="grid", executor="processes", workers=1, batch_size=1, store=tmp_path / name, progress=False)
+        rows = pl.study.Store(tmp_path / name).read()
+        assert len(rows) == 3 and rows["key"].is_unique and (rows["status"] == "success").all()
+        np.testing.assert_array_equal(rows["y"], rows["x"] ** 2)
+        return set(_worker_pids(rows)), ex.recycled_pools() - recycled
+
+    try:
+        monkeypatch.setenv("PROLEG_MAX_RSS_BYTES", "1")
+        pids, recycled = run("tiny")
+        assert len(pids) == 3 and recycled == 3
+        monkeypatch.delenv("PROLEG_MAX_RSS_BYTES")
+        pids, recycled = run("default")
+        assert len(pids) == 1 and recycled == 0
+    finally:
+        ex.shutdown_pools()
+
+
+_LOOP = """
+import json, sys
+import jax
+jax.config.update("jax_enable_x64", True)
+import numpy as np
+import proleg as pl
+from proleg import memguard
+sys.path.insert(0, sys.argv[1])
+from test_study_faults import _two_link
+out = []
+for length in (0.5, 0.6, 0.5):  # the first model again after the clears: compiled anew
+    r = pl.simulate(pl.assemble(_two_link(length)), t_end=0.01, dt_output=0.005, progress=False)
+    out.append(np.asarray(r.q).tolist())
+print(json.dumps({"clears": memguard.clears(), "q": out}))
+"""
+
+
+@pytest.mark.slow  # two processes compile 2 models each, one a builder study's recycled workers (~1-2 min)
+def test_a_tiny_rss_threshold_clears_and_recycles_with_the_same_results(tmp_path):
+    """Real processes at a reduced size, PROLEG_MAX_RSS_BYTES = 1 byte: a script's loop over new
+    models clears its compiled code (assemble calls the guard) and the model run again after the
+    clears gives bitwise the same motion; a builder study on the processes executor replaces
+    its worker after every batch and stores the same values as the study in this process."""
+    import json
+    import subprocess
+    import sys
+
+    env = {**os.environ, "PROLEG_MAX_RSS_BYTES": "1", "PYTHONPATH": os.pathsep.join(sys.path)}
+    p = subprocess.run([sys.executable, "-c", _LOOP, os.path.dirname(__file__)], env=env, capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr[-3000:]
+    got = json.loads(p.stdout.strip().splitlines()[-1])
+    assert got["clears"] >= 1
+    np.testing.assert_array_equal(got["q"][2], got["q"][0])
+    assert np.max(np.abs(np.subtract(got["q"][1], got["q"][0]))) > 1e-6  # a different model
+
+    from proleg.study import executors as ex
+
+    st = pl.study.Study(lambda length: pl.assemble(_two_link(length)), {"length": [0.5, 0.6]},
+                        {"z": lambda r: r.part("lower").position[-1, 2]}, dict(t_end=0.01, dt_output=0.005))
+    local = st.run(design="grid", executor="local", batch_size=1, progress=False)
+    ex.shutdown_pools()
+    os.environ["PROLEG_MAX_RSS_BYTES"] = "1"
+    try:
+        recycled = ex.recycled_pools()
+        st.run(design="grid", executor="processes", workers=1, batch_size=1, store=tmp_path / "s", progress=False)
+        assert ex.recycled_pools() - recycled == 2
+    finally:
+        os.environ.pop("PROLEG_MAX_RSS_BYTES")
+        ex.shutdown_pools()
+    rows = pl.study.Store(tmp_path / "s").read().sort_values("length")
+    assert (rows["status"] == "success").all() and len(set(_worker_pids(rows))) == 2
+    np.testing.assert_array_equal(rows["z"], local.sort_values("length")["z"])
 
 
 def _two_link(length):

@@ -7,8 +7,10 @@ executables that JAX's and proleg's jit caches keep alive. Measured on the HyQ l
 memory maps and ~100 MB of resident memory. The maps plateau near 12,800 after ~17 models
 (the kernel stops a process at ``vm.max_map_count``, 65,530 by default, with SIGSEGV), the
 resident memory does not: 300 models would hold ~30 GB. Clearing the caches
-(``jax.clear_caches()`` and :func:`proleg.compile_cache.clear`) returns the maps to ~870 and
-stops the growth of the resident memory (the freed pages are reused by the next models).
+(``jax.clear_caches()`` and :func:`proleg.compile_cache.clear`) returns the maps to ~1,100 at
+once, but not the resident memory: the freed executables stay in glibc's heap (10 models:
+1,485 MiB before the clear, 1,440 MiB after it). :func:`release` therefore also hands the free
+heap back to the kernel (glibc's ``malloc_trim``), which brought the same process to 387 MiB.
 
 :func:`release_if_needed` clears them when the process passes a threshold; :func:`proleg.assemble`
 calls it before every new model, and the study's workers after every batch, so a study over
@@ -16,12 +18,18 @@ hundreds of geometries runs with no user action. Thresholds:
 
 - maps: ``PROLEG_MAX_MAPS``, default a quarter of ``vm.max_map_count`` (16,382 of 65,530), so a
   process stays below half the kernel's limit with a model's worth of margin;
-- resident memory: ``PROLEG_MAX_RSS_BYTES``, default a quarter of the machine's memory (two
-  study workers and the driver then stay well inside it).
+- resident memory: ``PROLEG_MAX_RSS_BYTES``, default a quarter of the machine's memory and at
+  most 4 GiB (:data:`MAX_RSS_DEFAULT`; a worker of a pool of W workers: at most 1/(2W) of the
+  memory, :func:`set_worker_share`, so the pool stays inside half the machine whatever W).
+  Choosing a value: ~40 new HyQ-sized models fit in 4 GiB; a lower value clears more often
+  and costs recompiling what is used again (seconds per model), a higher one lets a loop
+  over many geometries hold more memory before the clear.
 
 After a clear that leaves the process above a threshold (memory held by the user's own arrays),
-the next clear waits until it has grown by half again, so the caches are not cleared before
-every model. Clearing only costs recompiling what is used again.
+the in-process path cannot do more: the next clear waits until it has grown by half again, so
+the caches are not cleared before every model. A study's worker in that state asks to be
+replaced instead (:func:`should_recycle`; the "processes" executor then ends it once its batch
+is back and starts a fresh one), which returns all its memory to the system.
 """
 
 from __future__ import annotations
@@ -30,6 +38,10 @@ import gc
 import os
 
 _state = {"next_maps": None, "next_rss": None, "clears": 0}
+_share = {"workers": 0}  # > 0 in a worker of a pool of that many (set_worker_share)
+
+#: Upper end of the default resident-memory threshold [bytes] (``PROLEG_MAX_RSS_BYTES``).
+MAX_RSS_DEFAULT = 4 * 2**30
 
 
 def memory_maps() -> int:
@@ -74,9 +86,36 @@ def _env_int(name: str, default: int) -> int:
         return default
 
 
+def set_worker_share(workers: int) -> None:
+    """Make this process a worker of a pool of ``workers``: its default resident-memory threshold
+    becomes at most 1/(2 ``workers``) of the machine's memory (``PROLEG_MAX_RSS_BYTES`` still wins)."""
+    _share["workers"] = max(0, int(workers))
+
+
 def limits() -> tuple[int, int]:
     """(maps, resident bytes) past which :func:`release_if_needed` clears the compiled code."""
-    return _env_int("PROLEG_MAX_MAPS", max_map_count() // 4), _env_int("PROLEG_MAX_RSS_BYTES", _total_memory() // 4)
+    total = _total_memory()
+    rss = min(total // 4, MAX_RSS_DEFAULT)
+    if _share["workers"]:
+        rss = min(rss, total // (2 * _share["workers"]))
+    return _env_int("PROLEG_MAX_MAPS", max_map_count() // 4), _env_int("PROLEG_MAX_RSS_BYTES", rss)
+
+
+def _trim_heap() -> bool:
+    """Return the free pages of the C heap to the kernel (glibc's ``malloc_trim(0)``); False
+    where there is no glibc (musl, macOS, Windows: their allocators return memory themselves or
+    not at all, and nothing is lost by skipping it)."""
+    import ctypes
+    import ctypes.util
+
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+        trim = libc.malloc_trim
+    except (OSError, AttributeError, TypeError):
+        return False
+    trim.argtypes, trim.restype = [ctypes.c_size_t], ctypes.c_int
+    trim(0)
+    return True
 
 
 def release() -> None:
@@ -88,6 +127,7 @@ def release() -> None:
     jax.clear_caches()
     compile_cache.clear()
     gc.collect()
+    _trim_heap()  # the freed executables' pages back to the kernel: without it the RSS stays
     _state["clears"] += 1
 
 
@@ -105,6 +145,15 @@ def release_if_needed() -> bool:
     _state["next_maps"] = int(1.5 * maps) if maps > max_maps else None
     _state["next_rss"] = int(1.5 * rss) if rss > max_rss else None
     return True
+
+
+def should_recycle() -> bool:
+    """True if this process is above a threshold although it has just cleared its compiled code
+    (:func:`release_if_needed`, called here): what holds the memory is not a cache, and only a
+    new process gets it back. A study's worker then asks the driver to replace it."""
+    release_if_needed()
+    max_maps, max_rss = limits()
+    return memory_maps() > max_maps or rss_bytes() > max_rss
 
 
 def _outside_traces() -> bool:

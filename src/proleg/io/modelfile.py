@@ -197,6 +197,7 @@ def _spec_class(data, path):
     if len(path) >= 2 and path[0] in SECTIONS and isinstance(path[1], int):
         item = _get(data, path[:2])
         t = item.get("type") if isinstance(item, dict) else None
+        t = t if isinstance(t, str) else None  # `type: []` is the user's error, not a key to look up
         if path[0] == "parts":
             return PartSpec
         if path[0] == "markers":

@@ -350,6 +350,12 @@ def load_urdf(
                 break
         if r is not None:
             radius = float(r)
+        if not (np.isfinite(radius) and radius >= 0 and np.all(np.isfinite(center))):
+            raise ModelError(
+                f"{where}: foot link '{ln}' has a contact sphere of radius {radius} m at {center.tolist()} m; "
+                "the radius must be a finite number >= 0 and the centre finite. Fix the link's "
+                "<collision><sphere radius=...>/<origin>, or pass feet= without this link."
+            )
         spheres[ln] = (center, radius)
 
     # a floating base on the ground: lowest sphere bottom at z = 0 (the ground plane of SphereContact)

@@ -85,6 +85,8 @@ def inertia_problem(J) -> str | None:
     """None if ``J`` (3x3) is a valid inertia tensor, else a description of what is wrong (for
     callers that word their own error: URDF links, sweep variants)."""
     J = np.asarray(J, float)
+    if not np.all(np.isfinite(J)):
+        return f"has non-finite entries ({J.tolist()} kg m^2)"
     w = np.linalg.eigvalsh(0.5 * (J + J.T))
     if w.min() <= 0:
         return f"is not positive definite (principal moments {np.round(w, 12).tolist()} kg m^2)"

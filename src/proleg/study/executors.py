@@ -269,6 +269,25 @@ def run_payload(payload: bytes) -> list[dict]:
     return out
 
 
+def _run_in_pool(payload: bytes) -> tuple[list[dict], bool]:
+    """Entry point of a "processes" worker: (rows, recycle), recycle True when the worker is
+    still above its memory thresholds after clearing its compiled code
+    (:func:`proleg.memguard.should_recycle`): the driver then replaces it."""
+    from .. import memguard
+
+    out = run_payload(payload)
+    return out, memguard.should_recycle()
+
+
+def _init_worker(cache_dir: str | None, workers: int) -> None:
+    """Initializer of a "processes" worker: the driver's compilation cache, and this worker's
+    share of the machine's memory (:func:`proleg.memguard.set_worker_share`)."""
+    from .. import memguard
+
+    memguard.set_worker_share(workers)
+    use_compilation_cache(cache_dir)
+
+
 # ------------------------------------------------------------------------------------------
 # drivers: each yields the rows of each finished batch
 # ------------------------------------------------------------------------------------------
@@ -355,7 +374,7 @@ def process_pool(workers: int):
             if not _POOLS:
                 atexit.register(shutdown_pools)
             pool = _POOLS[workers] = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"),
-                                                         initializer=use_compilation_cache, initargs=(compilation_cache_dir(),))
+                                                         initializer=_init_worker, initargs=(compilation_cache_dir(), workers))
         return pool
 
 
@@ -397,6 +416,28 @@ def shutdown_pools() -> None:
             _POOLS.popitem()[1].shutdown(wait=False, cancel_futures=True)
 
 
+_RECYCLED = {"pools": 0}
+
+
+def _recycle_pool(workers: int, pool) -> None:
+    """End ``pool`` (its batches are all back) and let :func:`process_pool` start a fresh one:
+    a worker stayed above its memory thresholds after clearing its compiled code
+    (:func:`proleg.memguard.should_recycle`). The whole pool is replaced, as
+    ``ProcessPoolExecutor`` cannot replace one worker; its workers are waited for, so their
+    memory is back before the new ones start."""
+    with _POOL_LOCK:
+        if _POOLS.get(workers) is pool:
+            _POOLS.pop(workers)
+    pool.shutdown(wait=True)
+    _RECYCLED["pools"] += 1
+
+
+def recycled_pools() -> int:
+    """How many times this process replaced its worker pool because a worker stayed above its
+    memory thresholds (:func:`_recycle_pool`)."""
+    return _RECYCLED["pools"]
+
+
 #: Deaths of a worker process (segfault, OOM killer, kill -9) while it evaluated one variant
 #: alone, after which that variant is stored as failed (status "worker_died") and the study goes
 #: on (``PROLEG_MAX_WORKER_DEATHS``).
@@ -436,7 +477,10 @@ def run_processes(job, batches, *, workers, max_deaths: int | None = None, max_e
     attributed to the batch that caused it. A batch that kills its worker when alone is split
     in halves, down to single variants; a variant that kills its worker ``max_deaths`` times
     (default :data:`MAX_WORKER_DEATHS`) when alone becomes a row with status "worker_died" and
-    the reason, and the study goes on. Every other variant comes back exactly once. A pool that
+    the reason, and the study goes on. Every other variant comes back exactly once. A worker that
+    stays above its memory thresholds after clearing its compiled code asks to be replaced: no
+    new batch goes to its pool, and once the batches in flight are back the pool is ended and a
+    fresh one started (:func:`_recycle_pool`). A pool that
     breaks ``max_empty_breaks`` times with nothing in flight (workers that cannot start) ends the
     run with a ModelError; what is not done stays pending in the store."""
     from collections import deque
@@ -457,27 +501,33 @@ def run_processes(job, batches, *, workers, max_deaths: int | None = None, max_e
             inflight: dict = {}
             try:
                 if alone:
-                    fut = pool.submit(run_payload, cloudpickle.dumps((job, suspects[0])))
+                    fut = pool.submit(_run_in_pool, cloudpickle.dumps((job, suspects[0])))
                     inflight[fut] = suspects[0]
-                    rows = fut.result()
+                    rows, recycle = fut.result()
                     inflight.clear()
                     suspects.popleft()
+                    if recycle:
+                        _recycle_pool(workers, pool)
                     yield rows
                     continue
                 def submit():  # a batch leaves the queue only once it is in flight
-                    inflight[pool.submit(run_payload, cloudpickle.dumps((job, queue[0])))] = queue[0]
+                    inflight[pool.submit(_run_in_pool, cloudpickle.dumps((job, queue[0])))] = queue[0]
                     queue.popleft()
 
+                recycle = False  # a worker asked to be replaced: no new batch goes to this pool
                 while queue and len(inflight) < workers:
                     submit()
                 while inflight:
                     done, _ = wait(list(inflight), return_when=FIRST_COMPLETED)
                     for f in done:
-                        rows = f.result()  # raises BrokenProcessPool if a worker died
+                        rows, asked = f.result()  # raises BrokenProcessPool if a worker died
                         del inflight[f]
+                        recycle = recycle or asked
                         yield rows
-                        if queue:
+                        if queue and not recycle:
                             submit()
+                if recycle:
+                    _recycle_pool(workers, pool)
             except BrokenProcessPool:
                 how = _exit_codes(pool)
                 with _POOL_LOCK:
