@@ -156,15 +156,9 @@ def codesign_study(configuration: int, link_case: int, link_model: str = "prbm",
 
 
 def _binding(row: dict, space: dict, cons: dict) -> str:
-    from ..study.codesign import slack
+    from ..study.codesign import binding
 
-    out = [c for c, (op, b) in cons.items() if abs(slack(op, b, float(row[c]))) <= BINDING_TOL]
-    for k, (lo, hi) in space.items():
-        span = hi - lo
-        if float(row[k]) <= lo + 0.01 * span:
-            out.append(f"{k} = lo")
-        elif float(row[k]) >= hi - 0.01 * span:
-            out.append(f"{k} = hi")
+    out = binding(row, cons, space, BINDING_TOL)
     return ", ".join(out) if out else "none (interior optimum)"
 
 

@@ -99,7 +99,7 @@ def optimise_jump(n_trials: int = 12, batch: int = 6, seed: int = 0, *, space: d
     ``best`` (the optimum's row: law and outputs), ``binding`` (constraints within
     :data:`BINDING_TOL` of their bound, and law variables at a bound of their range), ``trials``
     (every variant's row) and ``n_trials``."""
-    from ..study.codesign import slack
+    from ..study.codesign import binding, slack
 
     space = dict(LAW_SPACE if space is None else space)
     study = jump_study(space)
@@ -114,15 +114,9 @@ def optimise_jump(n_trials: int = 12, batch: int = 6, seed: int = 0, *, space: d
     ok["feasible"] = feas
     pool = ok[ok["feasible"]] if feas.any() else ok
     best = pool.loc[pool["height"].idxmax()].to_dict()
-    binding = [c for c, (op, b) in CONSTRAINTS.items() if abs(slack(op, b, float(best[c]))) <= BINDING_TOL]
-    for k, (lo, hi) in space.items():
-        span = hi - lo
-        if float(best[k]) <= lo + 0.01 * span:
-            binding.append(f"{k} = lo")
-        elif float(best[k]) >= hi - 0.01 * span:
-            binding.append(f"{k} = hi")
+    binds = binding(best, CONSTRAINTS, space, BINDING_TOL)
     best["limit"] = limit_name(best["limit_code"])
-    return {"best": best, "binding": binding, "trials": ok, "n_trials": len(rows)}
+    return {"best": best, "binding": binds, "trials": ok, "n_trials": len(rows)}
 
 
 def limit_check(design: dict | None = None, factor: float = 1.3, *, store=None, progress: bool = False, t_after: float = 0.35,

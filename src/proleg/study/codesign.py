@@ -64,6 +64,20 @@ def slack(op: str, bound: float, value: float) -> float:
     return (bound - value) / s if op == "<=" else (value - bound) / s
 
 
+def binding(row: dict, constraints: dict, space: dict, tol: float = 0.02, edge: float = 0.01) -> list[str]:
+    """What binds at an optimum ``row`` ({name: value}): each constraint ({output: (op, bound)})
+    whose scaled :func:`slack` is within ``tol`` of zero, then each design variable of ``space``
+    ({name: (lo, hi)}) within ``edge`` of its range's span from a bound (``"name = lo"`` / ``"= hi"``)."""
+    out = [c for c, (op, b) in constraints.items() if abs(slack(op, b, float(row[c]))) <= tol]
+    for k, (lo, hi) in space.items():
+        span = hi - lo
+        if float(row[k]) <= lo + edge * span:
+            out.append(f"{k} = lo")
+        elif float(row[k]) >= hi - edge * span:
+            out.append(f"{k} = hi")
+    return out
+
+
 class _Log:
     """Evaluations of one refinement (point u → outputs and Jacobian), kept in memory and, with
     a store, in ``STORE/refine.parquet`` (rewritten atomically after each new evaluation)."""
