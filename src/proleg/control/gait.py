@@ -29,6 +29,8 @@ import dataclasses
 import jax.numpy as jnp
 import numpy as np
 
+from ..spatial.rotation import skew
+
 
 @dataclasses.dataclass(frozen=True)
 class Trot:
@@ -83,8 +85,32 @@ class Trot:
 LEG_OFFSET = {"lf": 0.0, "rh": 0.0, "rf": 0.5, "lh": 0.5}
 
 
-def _skew(r):
-    return jnp.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
+def foot_jacobian(state, foot, leg_joints):
+    """(p, o_1, J) of one leg: the foot marker's position, its first joint's origin and J (3, n),
+    the foot's velocity per joint rate (each joint a revolute about the z axis of its J marker)."""
+    p = state.marker_position(foot)
+    o = [state.marker_position(f"{j}.J") for j in leg_joints]
+    a = [state.marker_orientation(f"{j}.J")[:, 2] for j in leg_joints]
+    return p, o[0], jnp.stack([jnp.cross(ak, p - ok) for ak, ok in zip(a, o)], axis=1)
+
+
+def stance_forces(F, M, r_b, feet_p, *, moment_arm, mu, weights=None):
+    """The ground forces, one (3,) per foot at ``feet_p``, that carry the trunk wrench (F, M)
+    about the trunk position ``r_b``: the least-norm split among the feet whose ``weights`` are 1
+    (in stance; default all), the moment scaled by ``moment_arm`` [m] so forces and moments
+    weigh alike, then each foot's tangential part clipped to 0.6 ``mu`` f_z (f_z ≥ 0)."""
+    A = jnp.concatenate([jnp.concatenate([jnp.eye(3), skew(p - r_b) / moment_arm], axis=0) for p in feet_p], axis=1)  # (6, 3n)
+    W = jnp.repeat(jnp.ones(len(feet_p)) if weights is None else weights, 3)
+    b = jnp.concatenate([F, M / moment_arm])
+    AW = A * W[None, :]
+    f_all = W * (AW.T @ jnp.linalg.solve(AW @ A.T + 1e-6 * jnp.eye(6), b))
+    out = []
+    for k in range(len(feet_p)):
+        f = f_all[3 * k : 3 * k + 3]
+        fz = jnp.maximum(f[2], 0.0)
+        nt = jnp.sqrt(f[:2] @ f[:2] + 1e-12)
+        out.append(jnp.concatenate([f[:2] * jnp.minimum(1.0, 0.6 * mu * fz / nt), fz[None]]))
+    return out
 
 
 def quadruped_torques(gait: Trot, t, state, *, legs, joints, feet, base, mass, nominal, foot_height, g=9.81, z_d=None):
@@ -102,33 +128,18 @@ def quadruped_torques(gait: Trot, t, state, *, legs, joints, feet, base, mass, n
                           g + gait.omega_z**2 * (z_d - r_b[2]) - 2 * gait.zeta_z * gait.omega_z * v_b[2]])
     M = -gait.k_att * phi - gait.d_att * w
     info = {}
-    cols, masks = [], []
     for leg in legs:
-        p = state.marker_position(feet[leg])
-        o = [state.marker_position(f"{j}.J") for j in joints[leg]]
-        a = [state.marker_orientation(f"{j}.J")[:, 2] for j in joints[leg]]
-        J = jnp.stack([jnp.cross(ak, p - ok) for ak, ok in zip(a, o)], axis=1)  # (3, 3): foot velocity per joint rate
+        p, hip, J = foot_jacobian(state, feet[leg], joints[leg])
         stance, s_st, s_sw = gait.phase(t, LEG_OFFSET[leg])
-        info[leg] = dict(p=p, v=state.marker_velocity(feet[leg]), J=J, hip=o[0], stance=stance, s_sw=s_sw)
-        cols.append(jnp.concatenate([jnp.eye(3), _skew(p - r_b) / gait.moment_arm], axis=0))
-        masks.append(stance.astype(jnp.float64))
-    A = jnp.concatenate(cols, axis=1)  # (6, 12)
-    W = jnp.repeat(jnp.stack(masks), 3)
-    b = jnp.concatenate([F, M / gait.moment_arm])
-    AW = A * W[None, :]
-    f_all = W * (AW.T @ jnp.linalg.solve(AW @ A.T + 1e-6 * jnp.eye(6), b))
+        info[leg] = dict(p=p, v=state.marker_velocity(feet[leg]), J=J, hip=hip, stance=stance, s_sw=s_sw)
+    forces = stance_forces(F, M, r_b, [info[leg]["p"] for leg in legs], moment_arm=gait.moment_arm, mu=gait.mu,
+                           weights=jnp.stack([info[leg]["stance"].astype(jnp.float64) for leg in legs]))
     T_st = gait.duty * gait.period
     T_sw = (1 - gait.duty) * gait.period
     tau = {}
     for k, leg in enumerate(legs):
         d = info[leg]
-        f = f_all[3 * k : 3 * k + 3]
-        fz = jnp.maximum(f[2], 0.0)
-        ft = f[:2]
-        nt = jnp.sqrt(ft @ ft + 1e-12)
-        ft = ft * jnp.minimum(1.0, 0.6 * gait.mu * fz / nt)
-        f = jnp.concatenate([ft, fz[None]])
-        tau_st = -d["J"].T @ f
+        tau_st = -d["J"].T @ forces[k]
         # swing trajectory
         s = d["s_sw"]
         c, cd = 3 * s**2 - 2 * s**3, 6 * s * (1 - s)

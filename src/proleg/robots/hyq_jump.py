@@ -75,6 +75,7 @@ from dataclasses import dataclass, field
 import jax.numpy as jnp
 import numpy as np
 
+from ..control.gait import foot_jacobian, stance_forces
 from ..errors import ModelError
 from .hyq import LEGS, STANCE
 from .hyq_trot import RATING, TROT_VALVE_FLOW, _joints, piston_kinematics
@@ -120,10 +121,6 @@ class JumpLaw:
     mu: float = 0.7
 
 
-def _skew(r):
-    return jnp.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
-
-
 def jump_torques(law: JumpLaw, t, state, *, joints, feet, base, mass, z_c, q_land, g=9.81):
     """Joint torques [N m] (dict joint → torque) of the jump law (module docstring), unclipped."""
     T, dz = state.variable("jump_t_push"), state.variable("jump_rise")
@@ -138,24 +135,12 @@ def jump_torques(law: JumpLaw, t, state, *, joints, feet, base, mass, z_c, q_lan
     F = mass * jnp.array([-law.kv * v_b[0], -law.kv * v_b[1],
                           g + zdd_d + law.omega_z**2 * (z_d - r_b[2]) + 2 * law.zeta_z * law.omega_z * (zd_d - v_b[2])])
     M = -law.k_att * phi - law.d_att * w
-    arm = 0.3
-    cols, Js = [], []
-    for leg in LEGS:
-        p = state.marker_position(feet[leg])
-        o = [state.marker_position(f"{j}.J") for j in joints[leg]]
-        a = [state.marker_orientation(f"{j}.J")[:, 2] for j in joints[leg]]
-        Js.append(jnp.stack([jnp.cross(ak, p - ok) for ak, ok in zip(a, o)], axis=1))
-        cols.append(jnp.concatenate([jnp.eye(3), _skew(p - r_b) / arm], axis=0))
-    A = jnp.concatenate(cols, axis=1)
-    f_all = A.T @ jnp.linalg.solve(A @ A.T + 1e-6 * jnp.eye(6), jnp.concatenate([F, M / arm]))
+    legs = [foot_jacobian(state, feet[leg], joints[leg]) for leg in LEGS]  # (p, hip, J) per leg
+    forces = stance_forces(F, M, r_b, [p for p, _, _ in legs], moment_arm=0.3, mu=law.mu)  # all four feet stand
     tau = {}
     stand = t < law.t_start + T
     for k, leg in enumerate(LEGS):
-        f = f_all[3 * k : 3 * k + 3]
-        fz = jnp.maximum(f[2], 0.0)
-        nt = jnp.sqrt(f[:2] @ f[:2] + 1e-12)
-        f = jnp.concatenate([f[:2] * jnp.minimum(1.0, 0.6 * law.mu * fz / nt), fz[None]])
-        tau_st = -Js[k].T @ f
+        tau_st = -legs[k][2].T @ forces[k]
         for j, jn in enumerate(joints[leg]):
             tau_air = law.kp * (q_land[jn] - state.joint_angle(jn)) - law.kd * state.joint_rate(jn)
             tau[jn] = jnp.where(stand, tau_st[j], tau_air)
