@@ -168,14 +168,20 @@ def test_cavitation_floor_holds_and_the_cavity_collapses():
 M_PISTON, X_START, XV = 50.0, 0.01, 0.2
 
 
-def _piston_model(valve_command=None, reference=None, cylinder=CYL, period=1e-3):
+def _piston_model(valve_command=None, reference=None, cylinder=CYL, period=1e-3, *, x_start=X_START, speed=None, **servo):
+    """The piston on its slide under the servo; ``speed`` = (v, t_r): the slide driven at v [m/s]
+    by an imposed motion that reaches it smoothly over t_r [s]; ``servo``: more hydraulic_servo options."""
     model = pl.Model("piston", gravity=(0, 0, 0))
     part = model.add_part("piston", M_PISTON, (0.1, 0.1, 0.1), (0, 0, 0))
     model.add_joint(pl.Prismatic("slide", part, model.ground, at=(0, 0, 0), axis=(1, 0, 0)))
     model.add_actuator(pl.JointActuator("rod", "slide"))
-    piston = lambda th: (th + X_START, jnp.ones_like(th))  # noqa: E731
+    if speed is not None:
+        v, tr = speed
+        model.add_motion(pl.Motion("push", joint="slide", displacement=lambda t: jnp.where(t < tr, v * t * t / (2 * tr), v * (t - tr / 2)),
+                                   breakpoints=(tr,)))
+    piston = lambda th: (th + x_start, jnp.ones_like(th))  # noqa: E731
     model.add_controller(hydraulic_servo("cyl", ["slide"], ["rod"], piston, cylinder=cylinder, translation=True, period=period,
-                                         valve_command=valve_command, reference=reference, x0=[0.0]))
+                                         valve_command=valve_command, reference=reference, x0=[0.0], **servo))
     return model
 
 
@@ -281,15 +287,8 @@ def test_force_loop_on_a_moving_piston_steady_error(compensation):
     F_ref), F = F_ref; with the half-supply form, F_ref − F = (u_req − u_half) F_max / k_F
     (≈ +93 N here). Both against the closed form."""
     v, tr, f_ref = 0.1, 0.02, 1000.0
-    model = pl.Model("piston", gravity=(0, 0, 0))
-    part = model.add_part("piston", M_PISTON, (0.1, 0.1, 0.1), (0, 0, 0))
-    model.add_joint(pl.Prismatic("slide", part, model.ground, at=(0, 0, 0), axis=(1, 0, 0)))
-    model.add_actuator(pl.JointActuator("rod", "slide"))
-    model.add_motion(pl.Motion("push", joint="slide", displacement=lambda t: jnp.where(t < tr, v * t * t / (2 * tr), v * (t - tr / 2)),
-                               breakpoints=(tr,)))
-    piston = lambda th: (th + X_START, jnp.ones_like(th))  # noqa: E731
-    model.add_controller(hydraulic_servo("cyl", ["slide"], ["rod"], piston, translation=True, x0=[0.0], compensation=compensation,
-                                         reference=lambda t, state, th, thd: f_ref * jnp.ones(1), initial_force=[f_ref]))
+    model = _piston_model(reference=lambda t, state, th, thd: f_ref * jnp.ones(1), speed=(v, tr), compensation=compensation,
+                          initial_force=[f_ref])
     res = pl.simulate(pl.assemble(model), t_end=0.15, dt_output=1e-3, integrator=pl.GeneralizedAlpha())
     out = hydraulic_outputs(res, "cyl")
     late = res.t > 0.1
@@ -315,17 +314,9 @@ def test_overrunning_load_pressure_intensification(matched):
     v, tr, f_ref = -0.05, 0.02, 2500.0
     aa, ab, ps = CYL.area_a, CYL.area_b, SUP.pressure
     val = H.ServoValve(port_ratio=ab / aa) if matched else VAL
-    model = pl.Model("piston", gravity=(0, 0, 0))
-    part = model.add_part("piston", M_PISTON, (0.1, 0.1, 0.1), (0, 0, 0))
-    model.add_joint(pl.Prismatic("slide", part, model.ground, at=(0, 0, 0), axis=(1, 0, 0)))
-    model.add_actuator(pl.JointActuator("rod", "slide"))
-    model.add_motion(pl.Motion("push", joint="slide", displacement=lambda t: jnp.where(t < tr, v * t * t / (2 * tr), v * (t - tr / 2)),
-                               breakpoints=(tr,)))
-    piston = lambda th: (th + 0.06, jnp.ones_like(th))  # noqa: E731
     # the relief set out of the way (1.5 p_s) to show the intensification (at 1.1 p_s it opens and bleeds A)
-    model.add_controller(hydraulic_servo("cyl", ["slide"], ["rod"], piston, translation=True, x0=[0.0], valve=val,
-                                         relief=H.ReliefValve(cracking_ratio=1.5),
-                                         reference=lambda t, state, th, thd: f_ref * jnp.ones(1), initial_force=[f_ref]))
+    model = _piston_model(reference=lambda t, state, th, thd: f_ref * jnp.ones(1), x_start=0.06, speed=(v, tr), valve=val,
+                          relief=H.ReliefValve(cracking_ratio=1.5), initial_force=[f_ref])
     res = pl.simulate(pl.assemble(model), t_end=0.12, dt_output=1e-3, integrator=pl.GeneralizedAlpha())
     out = hydraulic_outputs(res, "cyl")
     late = res.t > 0.08
