@@ -236,8 +236,8 @@ def refine(study, start, objective: str, *, direction="minimize", maxiter: int =
     u = np.clip(res.x, 0.0, 1.0)
     y, _ = evaluate(u)
     best = {k: (v if isinstance(v, str) else float(v)) for k, v in values(u).items()}
-    binding = [c for c, (op, b) in cons.items() if abs(slack(op, b, float(y[outs.index(c)]))) <= active_tol]
-    binding += [f"{k} = {'lo' if u[j] <= 1e-6 else 'hi'}" for j, k in enumerate(names) if u[j] <= 1e-6 or u[j] >= 1 - 1e-6]
+    binds = [c for c, (op, b) in cons.items() if abs(slack(op, b, float(y[outs.index(c)]))) <= active_tol]
+    binds += [f"{k} = {'lo' if u[j] <= 1e-6 else 'hi'}" for j, k in enumerate(names) if u[j] <= 1e-6 or u[j] >= 1 - 1e-6]
     feasible = all(slack(op, b, float(y[outs.index(c)])) >= -active_tol for c, (op, b) in cons.items())
     return {"params": best, "value": float(y[0]), "start_value": float(y0[0]), "outputs": dict(zip(outs, map(float, y))),
-            "binding": binding, "feasible": feasible, "iterations": int(res.nit), "evaluations": nsim[0], "stored_before": log.stored, "success": bool(res.success), "message": str(res.message)}
+            "binding": binds, "feasible": feasible, "iterations": int(res.nit), "evaluations": nsim[0], "stored_before": log.stored, "success": bool(res.success), "message": str(res.message)}
