@@ -123,3 +123,22 @@ def test_every_bench_table_the_docs_show_is_committed():
     wanted.add("accuracy.json")  # <!-- bench-plot: accuracy --> draws it
     missing = sorted(n for n in wanted if f"bench/results/{n}" not in tracked)
     assert not missing, f"docs include bench/results files that are not committed (git add -f): {missing}"
+
+
+def test_every_table_the_docs_collect_is_written_by_its_reproduction():
+    """docs/papers/collect.py reads named Parquet files from each scenario's results; a report
+    that stops writing one (renamed or split, as the torso's calibrated/predicted tables were)
+    would leave the docs showing a stale table or fail the collection. Each name must be written
+    by proleg's reproduction code."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("_collect", DOCS / "papers" / "collect.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    src = "\n".join(p.read_text() for d in ("papers", "robots", "study") for p in (ROOT / "src" / "proleg" / d).glob("*.py"))
+    def written(name):  # the file name, or its stem when the report builds the name (f"{name}.parquet")
+        stem = name.rsplit(".", 1)[0]
+        return any(f"{q}{n}{q}" in src for n in (name, stem) for q in "\"'")
+
+    missing = sorted(f"{scenario}: {name}" for scenario, tables in mod.TABLES.items() for name, *_ in tables if not written(name))
+    assert not missing, f"docs/papers/collect.py expects tables no reproduction writes: {missing}"

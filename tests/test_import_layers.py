@@ -123,3 +123,18 @@ def test_every_scenario_of_the_cli_table_resolves():
     assert {"hyq-drop", "scout2-bound", "flegx-jump", "torso-modal"} <= set(SCENARIOS)
     for name, (module, function, _) in SCENARIOS.items():
         assert callable(getattr(importlib.import_module(module), function)), name
+
+
+def test_a_scenario_runner_with_free_keywords_names_progress():
+    """docs/papers/collect.py passes ``progress=False`` to every runner that takes it. A runner
+    whose ``**kwargs`` are model parameters must name ``progress`` itself, or the keyword lands
+    among the parameters (torso-modal once failed with "unknown parameter(s) ['progress']")."""
+    import importlib
+    import inspect
+
+    from proleg.cli.main import SCENARIOS
+
+    for name, (module, function, _) in SCENARIOS.items():
+        ps = inspect.signature(getattr(importlib.import_module(module), function)).parameters
+        if any(p.kind is p.VAR_KEYWORD for p in ps.values()):
+            assert "progress" in ps, f"{name}: {function} takes **kwargs but not progress="

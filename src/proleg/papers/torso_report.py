@@ -146,9 +146,10 @@ def table2_from_pairing(fe, fe_rows, fe_shapes, ident, roles, min_mac: float = 0
 
 
 def run_torso_modal(out_dir="results/torso-modal", *, n_hits: int = 5, f_max: float = 200.0, seed: int = 0,
-                    **params) -> Path:
+                    progress: bool = False, **params) -> Path:
     """The torso-modal scenario; returns the HTML report path. ``params`` override
-    :data:`proleg.robots.torso.TORSO_DEFAULTS` before the calibration."""
+    :data:`proleg.robots.torso.TORSO_DEFAULTS` before the calibration. ``progress`` is accepted
+    like every scenario runner's (docs/papers/collect.py passes it); the FE solves show none."""
     from ..identify.hammer import comparison_table, modal, synthetic_hammer_test
     from ..identify.uff import write_frf_uff
     from ..report.html import Report
