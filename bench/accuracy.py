@@ -289,6 +289,96 @@ def chain8_vs_exudyn(tols=(1e-3, 3e-4, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8), repeat=5):
     return rows, summary
 
 
+def floor_rows(repeat=5):
+    """Where the 8-link chain's time goes at the defaults (issue 29's chain row): the per-step
+    cost of Diffrax's Tsit5 loop itself (a trivial right-hand side on the chain's state shapes,
+    8 decoupled oscillators of 1–40 rad/s, so the step controller works as hard), the chain's
+    right-hand side alone (one evaluation, timed in a ``fori_loop``; Tsit5 makes 6 per step), and
+    the default run; Exudyn at tolerance 1e-3, its cheapest row, as the time to meet. Times are
+    process CPU seconds, the fastest of ``repeat`` warm runs. The notes
+    derive the loop's floor for the default run's step count: if the floor alone exceeds
+    Exudyn's time, no cheaper right-hand side can meet the target at that tolerance."""
+    import diffrax
+    import jax
+    import jax.numpy as jnp
+    import proleg as pl
+    from proleg.assembly.joint_coordinates import joint_set
+    from proleg.solvers.eom import vector_field
+    from proleg.solvers.initial import _consistent_state, initial_z
+
+    p = problems()["chain8"]
+    rows = []
+
+    def best(run):  # the fastest of ``repeat`` warm runs by process CPU time (steadier than wall on a shared machine)
+        jax.block_until_ready(run())
+        cpus = []
+        for _ in range(repeat):
+            c0 = time.process_time()
+            out = jax.block_until_ready(run())
+            cpus.append(time.process_time() - c0)
+        return out, min(cpus)
+
+    w2 = jnp.linspace(1.0, 40.0, 8) ** 2
+    ts = jnp.linspace(0.0, p["t_end"], int(round(p["t_end"] / p["dt"])) + 1)
+
+    @jax.jit
+    def trivial(y0):
+        term = diffrax.ODETerm(lambda t, y, a: (y[1], -w2 * y[0], jnp.zeros(2)))
+        sol = diffrax.diffeqsolve(term, diffrax.Tsit5(), 0.0, p["t_end"], None, y0, saveat=diffrax.SaveAt(ts=ts),
+                                  stepsize_controller=diffrax.PIDController(rtol=1e-7, atol=1e-8), max_steps=100_000, throw=False)
+        return sol.ys, sol.stats["num_accepted_steps"], sol.stats["num_rejected_steps"]
+
+    (_, na, nr), wall = best(lambda: trivial((jnp.ones(8), jnp.zeros(8), jnp.zeros(2))))
+    n = int(na) + int(nr)
+    rows.append({"what": "Diffrax Tsit5 loop, trivial right-hand side (floor)", "steps": int(na), "rejected": int(nr), "CPU [s]": wall,
+                 "us per attempted step": 1e6 * wall / n})
+    system = p["system"]
+    dyn = joint_set(system)
+    q, v, _, _, z0, _ = _consistent_state(system, None, None, 0.0, initial_z(system))
+    x, u = dyn.reduce(q, v)
+    y0 = (x, u, jnp.zeros(2, x.dtype))
+    m = 20_000
+
+    @jax.jit
+    def many(y):
+        def body(i, y):
+            dy = vector_field(0.0, y, (dyn, z0, 0.0))
+            return jax.tree_util.tree_map(lambda a, b: a + 1e-12 * b, y, dy)
+        return jax.lax.fori_loop(0, m, body, y)
+
+    _, wall = best(lambda: many(y0))
+    rows.append({"what": "chain8 right-hand side alone, × 6 per Tsit5 step", "steps": None, "rejected": None, "CPU [s]": wall * 6 / m,
+                 "us per attempted step": 6e6 * wall / m})
+    M0 = dyn.mass_matrix(x)
+    parts = {  # where one evaluation goes (each × 6: per step)
+        "  of which forward kinematics (8 depth levels)": lambda x: dyn._poses(x),
+        "  of which mass matrix (kinematics + CRBA)": lambda x: dyn.mass_matrix(x),
+        "  of which Cholesky factor + solve (8 × 8)": lambda x: jax.scipy.linalg.cho_solve(jax.scipy.linalg.cho_factor(M0 + 1e-30 * x[0]), x),
+    }
+    for what, fn in parts.items():
+        @jax.jit
+        def part(x, fn=fn):
+            def body(i, x):
+                s = sum(jnp.sum(o) for o in jax.tree_util.tree_leaves(fn(x)))
+                return x + 1e-300 * s
+            return jax.lax.fori_loop(0, m, body, x)
+
+        _, wall = best(lambda: part(x))  # noqa: B023
+        rows.append({"what": what, "steps": None, "rejected": None, "CPU [s]": wall * 6 / m, "us per attempted step": 6e6 * wall / m})
+    r, wall = best(lambda: pl.simulate(system, t_end=p["t_end"], dt_output=p["dt"], progress=False).q)
+    r = pl.simulate(system, t_end=p["t_end"], dt_output=p["dt"], progress=False)
+    n_def = r.stats["steps"] + r.stats["rejected"]
+    rows.append({"what": f"chain8 default run: {r.stats['integrator']}", "steps": r.stats["steps"], "rejected": r.stats["rejected"],
+                 "CPU [s]": wall, "us per attempted step": 1e6 * wall / n_def})
+    try:
+        res = [exudyn_chain8(1e-3) for _ in range(repeat + 1)][1:]
+        rows.append({"what": "Exudyn DOPRI5, tol 1e-3 (its cheapest row)", "steps": None, "rejected": None,
+                     "CPU [s]": min(x[3] for x in res), "us per attempted step": None})
+    except ImportError:
+        log("exudyn is not installed: no Exudyn row")
+    return rows, {"default attempted steps": n_def}
+
+
 def _chain_angles(r):
     """Absolute pitch of each link about y [rad] (x axis turned towards −z is positive) from a
     proleg result's part orientations."""
@@ -389,8 +479,28 @@ def main(argv=None):
     ap.add_argument("--exudyn", action="store_true", help="only the 8-link chain, proleg against Exudyn run in this process (pip install exudyn): work–precision and time at equal drift")
     ap.add_argument("--slopes", action="store_true", help="issue 29: error against the rtol given to simulate with no integrator "
                     "named, 1e-4 … 1e-9, and its slope (target ≥ 0.9 decade per decade) on the squeezer and the chain")
+    ap.add_argument("--floor", action="store_true", help="issue 29's chain row: the Diffrax loop's per-step floor, the chain's "
+                    "right-hand side alone and the default run, against Exudyn's cheapest time")
     add_output_args(ap, "accuracy")
     args = ap.parse_args(argv)
+    if args.floor:
+        import os
+
+        rows, meta = floor_rows()
+        floor = rows[0]["us per attempted step"] * 1e-6 * meta["default attempted steps"]
+        notes = [f"the loop's floor for the default run's {meta['default attempted steps']} attempted steps: {floor:.3f} s"]
+        rhs = rows[1]["us per attempted step"]
+        notes.append(f"loop + right-hand side: {rows[0]['us per attempted step'] + rhs:.1f} us per attempted step, "
+                     f"{(rows[0]['us per attempted step'] + rhs) * 1e-6 * meta['default attempted steps']:.3f} s for the default run")
+        ex = [row for row in rows if row["what"].startswith("Exudyn")]
+        if ex:
+            need = 1e6 * ex[0]["CPU [s]"] / meta["default attempted steps"]
+            notes.append(f"to match Exudyn's {ex[0]['CPU [s]']:.3f} s at the default's step count a step may cost {need:.1f} us; "
+                         f"the loop alone costs {rows[0]['us per attempted step']:.1f} us "
+                         + ("(floor above it: no right-hand side meets the target at this tolerance)" if floor > ex[0]["CPU [s]"] else "(floor below it)"))
+        emit(args, "issue 29: where the 8-link chain's time goes at the defaults", rows, list(rows[0]),
+             meta={"load average": os.getloadavg()[0], **meta}, notes=notes)
+        return
     if args.exudyn:
         import os
 
