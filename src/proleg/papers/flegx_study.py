@@ -36,15 +36,16 @@ PRBM link on Table I's strip, link case 2 (250 × 70 × 3 mm: seed 002 §IV, "Th
 configurations were equipped with a 250 mm long, 70 mm wide and 3 mm thick flexible link. The
 simulations were performed by requiring that the maximum value of the stresses in the lower
 link was sufficiently lower than the ultimate tensile strength ..., namely between 510 and
-530MPa"). Each configuration's shortest feasible push comes from
-:func:`~proleg.papers.flegx_codesign.push_at_limits` (a push grid, interpolated); a longer push
-lowers the constrained peaks (checked on the grid for the binding one: ``monotone``), so the common
-law is the longest of them, and the configuration that sets it binds: its stress or torque
-sits at its limit (to the interpolation's accuracy), the others below theirs. The squat, the
+530MPa"). Each configuration's shortest push within the limits comes from
+:func:`~proleg.papers.flegx_codesign.push_at_limits` (a push grid, interpolated; ``rule="first"``:
+the first feasible push, since a long push that takes off late can break a limit again); the
+common law is the longest of them, so the configuration that sets it binds (its stress or
+torque at its limit, to the interpolation's accuracy) and the others, which reach their limits
+at shorter pushes, are checked within theirs at the shared push (interpolated on their grids:
+``within_at_shared``; the study's rows then give their simulated peaks). The squat, the
 extended pose and the other timings stay flegx_jump's documented ones (assumed: seed 002 prints
 no angles or timings). The other link cases and the Craig-Bampton link run the same law and
-may exceed 520 MPa: the table flags them (``> 510 MPa``), as Table I's strips other than case
-2 are not in the paper.
+may exceed 520 MPa: the table flags them (``> 510 MPa``); Table I reports case 2 only.
 """
 
 from __future__ import annotations
@@ -76,7 +77,8 @@ SHARED_REFINE = 4
 SHARED_LAW_CASE, SHARED_LAW_MODEL = 2, "prbm"
 #: the metrics kept as study outputs (flegx_jump docstring)
 OUTPUTS = ("jump_height", "flight_rise", "foot_clearance", "take_off_time", "apex_time", "max_stress_takeoff",
-           "max_stress", "tip_displacement", "total_mass", "peak_hip_torque", "peak_knee_torque")
+           "max_stress", "tip_displacement", "total_mass", "peak_hip_torque", "peak_knee_torque", "peak_hip_torque_takeoff",
+           "peak_knee_torque_takeoff")
 
 
 def study_groups(configurations=(1, 2, 3, 4), cases=(1, 2, 3, 4, 5, 6), cb_case: int | None = 2) -> list[dict]:
@@ -226,16 +228,10 @@ def run_table_i(store_dir, configurations=(1, 2, 3, 4), cases=(1, 2, 3, 4, 5, 6)
 
 def _push_job(kw: dict) -> dict:
     """One configuration's :func:`~proleg.papers.flegx_codesign.push_at_limits` (module-level:
-    worker processes run it); the grid's rows stay behind (``grid_rows`` counts them)."""
+    worker processes run it)."""
     from . import flegx_codesign as FC
 
-    out = FC.push_at_limits(**kw)
-    grid = out.pop("grid", None)
-    out["grid_rows"] = 0 if grid is None else len(grid)
-    # the binding output falls as the push lengthens on the grid (the interpolation onto its limit is sound)
-    c = out.get("binding")
-    out["binding_monotone"] = bool(grid is not None and c in grid and np.all(np.diff(grid[c].to_numpy(float)) <= 0))
-    return out
+    return FC.push_at_limits(**kw)
 
 
 def _map(fn, jobs: list[dict], workers: int) -> list:
@@ -253,23 +249,24 @@ def shared_push(configurations=(1, 2, 3, 4), link_case: int = SHARED_LAW_CASE, l
     """The shared law's push duration (module docstring): the shortest push [s] at which every
     configuration keeps within :func:`~proleg.papers.flegx_codesign.constraints` up to take-off.
 
-    Each configuration's shortest feasible push is found by
-    :func:`~proleg.papers.flegx_codesign.push_at_limits` on the grid ``pushes`` [s]; the
-    longest of them is the shared push. Then the configurations whose push lies in the grid's
-    bracket around the shared push (a < t ≤ b) are searched again with ``refine`` more pushes
-    inside it (the grid's own rows replay from ``store``), so the binding limit is interpolated
-    over ``(b - a) / (refine + 1)``, not over the grid's step. ``store``: a folder, one study
-    store per configuration under it (a rerun replays them); ``workers``: processes (default
-    the cores this process may use).
+    Each configuration's shortest push within the limits is found by
+    :func:`~proleg.papers.flegx_codesign.push_at_limits` (``rule="first"``) on the grid
+    ``pushes`` [s]; the longest of them is the shared push. Then the configurations whose push
+    lies in the grid's bracket around the shared push (a < t ≤ b) are searched again with
+    ``refine`` more pushes inside it (the grid's own rows replay from ``store``), so the binding
+    limit is interpolated over ``(b - a) / (refine + 1)``, not over the grid's step. ``store``:
+    a folder, one study store per configuration under it (a rerun replays them); ``workers``:
+    processes (default the cores this process may use).
 
     Returns a dict: ``t_push_s``, ``binding_configuration``, ``binding`` (its binding
     constraint), ``stress_MPa``, ``peak_hip_Nm``, ``peak_knee_Nm`` (the binding
-    configuration's, interpolated at the push), ``monotone`` (the binding configuration's
-    binding output falls with the push over its whole grid: the interpolation onto the limit
-    is sound; each row's ``monotone`` is push_at_limits' stricter test, the height and every
-    constraint), and
-    ``per_configuration``: a DataFrame, one row per configuration with its own shortest push
-    at the limits, its binding constraint and its interpolated peaks and heights.
+    configuration's, interpolated at the push), ``within_all`` (every configuration within the
+    limits at the shared push, interpolated on its grid), and ``per_configuration``: a
+    DataFrame, one row per configuration: its own shortest push at the limits (``t_push_s``),
+    binding constraint, peaks and heights there (push_at_limits' row, ``feasible_after``:
+    whether every longer push of its grid is feasible), and at the shared push, interpolated
+    on its grid: ``stress_shared_MPa``, ``hip_shared_Nm``, ``knee_shared_Nm``,
+    ``height_shared_mm``, ``jump_shared_mm``, ``within_at_shared``.
 
     Raises
     ------
@@ -278,12 +275,14 @@ def shared_push(configurations=(1, 2, 3, 4), link_case: int = SHARED_LAW_CASE, l
     """
     import os
 
+    from .flegx_codesign import OBJECTIVE, _feasible_grid, constraints
+
     configurations = tuple(configurations)
     workers = workers or max(1, min(len(configurations), len(os.sched_getaffinity(0))))
     grid = tuple(sorted(float(t) for t in pushes))
 
     def job(c, ts):
-        return dict(configuration=c, link_case=link_case, link_model=link_model, pushes=ts,
+        return dict(configuration=c, link_case=link_case, link_model=link_model, pushes=ts, rule="first",
                     store=None if store is None else Path(store) / f"no{c}_case{link_case}_{link_model}")
 
     found = dict(zip(configurations, _map(_push_job, [job(c, grid) for c in configurations], workers), strict=True))
@@ -298,12 +297,24 @@ def shared_push(configurations=(1, 2, 3, 4), link_case: int = SHARED_LAW_CASE, l
         fine = tuple(sorted({*grid, *np.linspace(a, b, int(refine) + 2)[1:-1].round(6).tolist()}))
         again = [c for c, r in found.items() if r["t_push_s"] > a]
         found.update(zip(again, _map(_push_job, [job(c, fine) for c in again], workers), strict=True))
-    per = pd.DataFrame([{k: v for k, v in r.items() if not isinstance(v, (pd.DataFrame, dict, list))} for r in found.values()])
-    i = int(per["t_push_s"].to_numpy(float).argmax())
-    top = per.iloc[i]
+    t_sh = max(r["t_push_s"] for r in found.values())
+    cons = constraints()
+    s_c, h_c, k_c = list(cons)[:3]
+    rows = []
+    for c, r in found.items():
+        g = r["grid"]
+        tp = g["law_t_push"].to_numpy(float)
+        at = {x: float(np.interp(t_sh, tp, g[x].to_numpy(float))) for x in (*cons, OBJECTIVE, "jump_height")}
+        row = {k: v for k, v in r.items() if not isinstance(v, (pd.DataFrame, dict, list))}
+        row.update(grid_rows=len(g), stress_shared_MPa=at[s_c] / 1e6, hip_shared_Nm=at[h_c], knee_shared_Nm=at[k_c],
+                   height_shared_mm=1e3 * at[OBJECTIVE], jump_shared_mm=1e3 * at["jump_height"],
+                   within_at_shared=bool(_feasible_grid(pd.DataFrame([at]), cons)[0]))
+        rows.append(row)
+    per = pd.DataFrame(rows)
+    top = per.iloc[int(per["t_push_s"].to_numpy(float).argmax())]
     return {"t_push_s": float(top["t_push_s"]), "binding_configuration": int(top["configuration"]), "binding": str(top["binding"]),
             "stress_MPa": float(top["stress_MPa"]), "peak_hip_Nm": float(top["peak_hip_Nm"]), "peak_knee_Nm": float(top["peak_knee_Nm"]),
-            "monotone": bool(top["binding_monotone"]), "link_case": link_case, "link_model": link_model, "per_configuration": per}
+            "within_all": bool(per["within_at_shared"].all()), "link_case": link_case, "link_model": link_model, "per_configuration": per}
 
 
 def shared_law(shared: dict) -> MotionLaw:
