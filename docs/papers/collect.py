@@ -44,6 +44,13 @@ def _codesign(df: pd.DataFrame) -> pd.DataFrame:
     return codesign_table(df)
 
 
+def _shared_law(df: pd.DataFrame) -> pd.DataFrame:
+    """flegx-study's shared law: each configuration's shortest push within the limits (shared_law.parquet)."""
+    from proleg.papers.flegx_report import shared_law_table
+
+    return shared_law_table(df)
+
+
 def _sensor_feasible(df: pd.DataFrame) -> pd.DataFrame:
     """torque-sensor-study's requirement trials (CMA-ES over FE solves) that meet the requirement,
     closest to the target twist first (the limits are sensor_requirement.REQUIREMENT's)."""
@@ -69,7 +76,9 @@ TABLES = {
                     ("table2_test_pairing.parquet", "Table 2's layout filled from the FE-versus-synthetic-test pairing by MAC", None)],
     "flegx-jump": [("metrics.parquet", "Countermovement jump, No. 4, 250×70×3 link: rigid vs PRBM vs Craig–Bampton", None)],
     "flegx-machinery": [("metrics.parquet", "Worm gears in the dynamics vs ideal gears (seed 002 Fig. 4)", None)],
-    "flegx-study": [("table1.parquet", "Seed 002 Table I: configurations 1–4 × link cases, next to the paper", None),
+    "flegx-study": [("shared_law.parquet", "The shared law: each configuration's shortest push within 520 MPa and 77 N m up to "
+                     "take-off (PRBM, case 2); the longest sets the one law all variants run", _shared_law),
+                    ("table1.parquet", "Seed 002 Table I: configurations 1–4 at the shared law, next to the paper", None),
                     ("codesign.parquet", "Table I by co-design: each configuration's optimum law within 520 MPa and 77 N m (reduced size)",
                      _codesign)],
     "scout2-bound": [("metrics.parquet", "Bounding gait metrics, Model I and Model II (seed 003 §5)", None)],

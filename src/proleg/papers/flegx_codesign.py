@@ -78,7 +78,7 @@ __all__ = ["STRESS_LIMIT", "WHEEL_RATING", "LAW_SPACE", "CONSTRAINT_PHASE", "OBJ
 STRESS_LIMIT = 520e6  # [Pa] seed 002 Table I: 514.6-530.7 MPa
 WHEEL_RATING = D.WORM_OUTPUT_TORQUE_LIMIT  # [N m] seed 002 §III.C
 #: ranges of the law's variables: the push 0.12-0.45 s (a push shorter than 0.12 s leaves the
-#: ground before the knee has extended; 0.45 s is slower than flegx-jump's 0.30 s), the
+#: ground before the knee has extended; 0.45 s, the longest push of flegx-jump's and flegx-study's push grids), the
 #: extended pose inside the joint ranges (flegx_data, assumed) and straighter than the squat
 LAW_SPACE = {"law_t_push": (0.12, 0.45), "law_extend_hip": (-40.0 * deg, 0.0), "law_extend_knee": (15.0 * deg, 80.0 * deg)}
 BINDING_TOL = 0.02  # a constraint within 2 % of its bound at the optimum binds
@@ -373,7 +373,7 @@ def optimise_table_i(configurations=(1, 2, 3, 4), cases=(2,), link_model: str = 
 
 
 def push_at_limits(configuration: int, link_case: int, link_model: str = "prbm", *, pushes=(0.16, 0.20, 0.25, 0.30, 0.38, 0.45),
-                   gears: str = "ideal", phase: str = CONSTRAINT_PHASE, executor: str = "local", store=None,
+                   gears: str = "ideal", phase: str = CONSTRAINT_PHASE, rule: str = "settled", executor: str = "local", store=None,
                    progress: bool = False) -> dict:
     """The reduced co-design: the push duration alone varies (the extended pose at flegx_jump's
     default), over a grid of ``pushes`` [s] run as one batch. Where the jump height falls and
@@ -382,7 +382,19 @@ def push_at_limits(configuration: int, link_case: int, link_model: str = "prbm",
     linear interpolation of each constraint's slack between grid points; the constraint whose
     slack reaches zero last is the binding one, and the heights are interpolated there
     (``height_mm``: :data:`OBJECTIVE`, ``jump_mm``: the guide's rise).
+
+    ``rule``, where the grid is not monotone (a longer push that takes off late can break a
+    limit again: measured, No. 2 case 2, a 0.364 s push leaves the ground just before the
+    retraction and its hip torque peaks at 173 N m up to take-off, where 0.348 s and 0.38 s
+    give 10 and 20 N m): ``"settled"`` (default, flegx-jump's) takes the shortest push from
+    which each limit holds at every longer push of the grid; ``"first"`` the shortest push at
+    which every limit holds, i.e. the first feasible grid point, interpolated from the
+    infeasible one before it (longer pushes may break a limit again; ``feasible_after``
+    says whether every longer push of the grid is feasible).
     Returns a row like :func:`optimise_law`'s plus the grid's own rows (``grid``)."""
+    if rule not in ("settled", "first"):
+        raise ModelError(f"flegx push_at_limits: rule {rule!r} is not known; expected 'settled' (each limit holds at every longer "
+                         "push) or 'first' (the first push at which every limit holds).")
     cons = constraints(phase)
     study, law = codesign_study(configuration, link_case, link_model, gears, space={"law_t_push": (min(pushes), max(pushes))})
     rows = study.evaluate(pd.DataFrame({"law_t_push": sorted(pushes)}), executor=executor, store=store, progress=progress,
@@ -392,12 +404,15 @@ def push_at_limits(configuration: int, link_case: int, link_model: str = "prbm",
     mass, h_paper, s_paper = D.TABLE_I[configuration]
     out = {"configuration": configuration, "link_case": link_case, "link_model": link_model, "phase": phase,
            "paper_jump_mm": h_paper, "paper_stress_MPa": s_paper, "grid": rows}
-    t_c, out["monotone"] = _push_limits(rows, cons)
+    t_c, out["monotone"] = _push_limits(rows, cons, rule)
+    out["rule"] = rule
     if any(math.isnan(v) for v in t_c.values()):
         out.update(binding="infeasible on the grid: " + ", ".join(c for c, v in t_c.items() if math.isnan(v)))
         return out
     c_bind = max(t_c, key=t_c.get)
     t_opt = t_c[c_bind]
+    ok = _feasible_grid(rows, cons)
+    out["feasible_after"] = bool(ok[tp > t_opt].all())
     at = {c: float(np.interp(t_opt, tp, rows[c].to_numpy(float))) for c in OUTPUTS}
     s_c, h_c, k_c = list(cons)[:3]
     out.update({"height_mm": 1e3 * at[OBJECTIVE], "jump_mm": 1e3 * at["jump_height"], "stress_MPa": at[s_c] / 1e6,
@@ -407,16 +422,36 @@ def push_at_limits(configuration: int, link_case: int, link_model: str = "prbm",
     return out
 
 
-def _push_limits(rows: pd.DataFrame, cons: dict) -> tuple[dict, bool]:
-    """For a push grid (rows sorted by ``law_t_push``): the shortest push [s] at which each
-    constraint holds from there on (linear interpolation of its slack; NaN if violated at the
-    longest push), and whether the height falls and every slack rises with the push."""
+def _slacks(rows: pd.DataFrame, cons: dict) -> dict:
     from ..study.codesign import slack
 
+    return {c: np.array([slack(op, b, v) for v in rows[c].to_numpy(float)]) for c, (op, b) in cons.items()}
+
+
+def _feasible_grid(rows: pd.DataFrame, cons: dict) -> np.ndarray:
+    """Per grid row: every constraint holds."""
+    return np.all(np.stack(list(_slacks(rows, cons).values())) >= 0, axis=0)
+
+
+def _push_limits(rows: pd.DataFrame, cons: dict, rule: str = "settled") -> tuple[dict, bool]:
+    """For a push grid (rows sorted by ``law_t_push``): per constraint, the push [s] from which
+    it holds (linear interpolation of its slack; NaN: no such push on the grid), and whether the
+    height falls and every slack rises with the push. ``rule`` (:func:`push_at_limits`):
+    "settled", it holds at every longer push of the grid; "first", up to the first grid point
+    at which every constraint holds (a constraint that holds at the point before it: that point)."""
     tp = rows["law_t_push"].to_numpy(float)
     h = rows["jump_height"].to_numpy(float)
-    sl = {c: np.array([slack(op, b, v) for v in rows[c].to_numpy(float)]) for c, (op, b) in cons.items()}
+    sl = _slacks(rows, cons)
     monotone = bool(np.all(np.diff(h) <= 0) and all(np.all(np.diff(v) >= 0) for v in sl.values()))
+    if rule == "first":
+        ok = np.flatnonzero(np.all(np.stack(list(sl.values())) >= 0, axis=0))
+        if not ok.size:
+            return {c: (math.nan if np.any(v < 0) else tp[0]) for c, v in sl.items()}, monotone
+        k = int(ok[0])
+        if k == 0:
+            return {c: tp[0] for c in sl}, monotone
+        return {c: (tp[k - 1] if v[k - 1] >= 0 else tp[k - 1] + (0.0 - v[k - 1]) / (v[k] - v[k - 1]) * (tp[k] - tp[k - 1]))
+                for c, v in sl.items()}, monotone
     t_c = {}
     for c, v in sl.items():
         if np.all(v >= 0):

@@ -18,7 +18,13 @@ docs/papers/seed-002.md. The paper: LFM 50 mm vs PRBM 60 mm (§III.A),
 Table I No. 4: 104 mm / 531 MPa; its machinery jump (Fig. 4): 50 mm, 447 MPa, 32 mm.
 The push is close to the leg's bounce period on the strip (≈ 0.2-0.3 s), so the flexible link
 stores and returns energy: shorter pushes jump much higher on the flexible link than on the
-rigid one. flegx-machinery uses T_push = 0.32 s (a ≈ 50 mm jump with worm gears).
+rigid one. The scenarios do not run this default push (issue 30: no law picked by hand):
+``flegx-jump`` runs the shortest push at which its PRBM leg keeps within 520 MPa and the 77 N m
+wheel rating (:func:`~proleg.papers.flegx_codesign.push_at_limits`), ``flegx-study`` the
+shortest at which every configuration does (:func:`~proleg.papers.flegx_study.shared_push`),
+and ``flegx-machinery`` the push and extended pose found by co-design
+(:func:`~proleg.papers.flegx_codesign.optimise_law`); the squat, hold and retraction timings and
+the stand and squat poses stay the documented values above in all three (assumed).
 The motions are imposed on the hip joint and on the knee wheel (No. 4: θ1 + θ2 through the
 tendon parallelogram) or the knee joint (No. 1-3), as the paper imposes motion laws "as a
 function of time" on the hip and knee; with ``gears="worm"`` on the worms (s = n r1 Δθ).

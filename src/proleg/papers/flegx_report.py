@@ -342,9 +342,21 @@ def study_table(rows: pd.DataFrame) -> pd.DataFrame:
         "configuration": r["configuration"], "link case": r["link_case"], "link model": r["link model"],
         "total mass [kg]": r["total_mass"], "jump height [mm]": r["jump_height"] * 1e3, "foot clearance [mm]": r["foot_clearance"] * 1e3,
         "flight rise [mm]": r["flight_rise"] * 1e3, "max stress take-off [MPa]": r["max_stress_takeoff"] / 1e6,
+        "hip torque take-off [N m]": r["peak_hip_torque_takeoff"], "knee torque take-off [N m]": r["peak_knee_torque_takeoff"],
         "tip displacement [mm]": r["tip_displacement"] * 1e3, "> 510 MPa": r["> 510 MPa"],
         "apex in window": r["apex_in_window"] > 0.5, "status": r["status"], "steps": r["steps"], "wall/variant [s]": r["wall_s"],
     })
+
+
+def shared_law_table(per: pd.DataFrame) -> pd.DataFrame:
+    """The shared law's per-configuration rows (``flegx_study.shared_push``) in report units."""
+    hk = lambda h, k: [f"{a:.1f} / {b:.1f}" for a, b in zip(per[h], per[k], strict=True)]  # noqa: E731
+    return pd.DataFrame({
+        "configuration": per["configuration"], "shortest push at the limits [s]": per["t_push_s"], "binding": per["binding"],
+        "stress to take-off [MPa]": per["stress_MPa"], "hip / knee torque to take-off [N m]": hk("peak_hip_Nm", "peak_knee_Nm"),
+        "longer pushes feasible": per["feasible_after"], "sets the shared law": per["t_push_s"] == per["t_push_s"].max(),
+        "at the shared push: stress [MPa]": per["stress_shared_MPa"], "hip / knee [N m]": hk("hip_shared_Nm", "knee_shared_Nm"),
+        "foot clearance [mm]": per["height_shared_mm"], "jump height [mm]": per["jump_shared_mm"], "within the limits": per["within_at_shared"]})
 
 
 #: the CLI's co-design size (reduced: 24 CMA-ES trials in generations of 6 after a 6-push start
@@ -364,17 +376,21 @@ def codesign_table(df: pd.DataFrame) -> pd.DataFrame:
         "binding": df["binding"],
         "law: push [s], extended (θ1, θ2) [deg]": [f"{t:.3f}, ({a:.1f}, {b:.1f})" for t, a, b in
                                                    zip(df.get("t_push_s"), df.get("extend_hip_deg"), df.get("extend_knee_deg"), strict=True)],
-        "hand law clearance [mm]": df.get("ref_height_mm"), "best per generation [mm]": df["history_mm"], "converged": df["converged"],
+        "shared law clearance [mm]": df.get("ref_height_mm"), "best per generation [mm]": df["history_mm"], "converged": df["converged"],
     })
 
 
-def _codesign_section(out: Path, configurations, extra: list, n_trials: int = CODESIGN_TRIALS, batch: int = CODESIGN_BATCH) -> tuple:
+def _codesign_section(out: Path, configurations, extra: list, n_trials: int = CODESIGN_TRIALS, batch: int = CODESIGN_BATCH,
+                      reference: dict | None = None) -> tuple:
     """The co-design of each configuration (PRBM, case 2, CMA-ES over the push and the extended
     pose, flegx_codesign.optimise_table_i), stored in ``out/codesign`` and written to
-    ``out/codesign.parquet``; returns (ranking sentence, table), every number from the run."""
+    ``out/codesign.parquet``; ``reference``: the law evaluated beside each optimum ({variable:
+    value}; flegx-study passes the shared law's push); returns (ranking sentence, table), every
+    number from the run."""
     from .flegx_codesign import CONSTRAINT_PHASE, constraints, optimise_table_i, ranking_text
 
-    df = optimise_table_i(tuple(configurations), (2,), "prbm", n_trials=n_trials, batch=batch, reference={}, store=out / "codesign")
+    df = optimise_table_i(tuple(configurations), (2,), "prbm", n_trials=n_trials, batch=batch, reference=dict(reference or {}),
+                          store=out / "codesign")
     df.to_parquet(out / "codesign.parquet", index=False)
     lim = ", ".join(f"{k} {op} {b / 1e6:g} MPa" if "stress" in k else f"{k} {op} {b:g} N m"
                     for k, (op, b) in constraints(CONSTRAINT_PHASE).items())
@@ -383,7 +399,7 @@ def _codesign_section(out: Path, configurations, extra: list, n_trials: int = CO
             extra.append(f"- Co-design No. {int(r['configuration'])}: push {r['t_push_s']:.3f} s to ({r['extend_hip_deg']:.1f}°, "
                          f"{r['extend_knee_deg']:.1f}°) → foot clearance {r['height_mm']:.1f} mm (guide rise {r['jump_mm']:.1f} mm) at {r['stress_MPa']:.0f} MPa, hip {r['peak_hip_Nm']:.1f} N m, "
                          f"knee {r['peak_knee_Nm']:.1f} N m up to take-off; binding: {r['binding']}; best per generation "
-                         f"{r['history_mm']} mm ({'converged' if r['converged'] else 'not converged'}); the hand law clears "
+                         f"{r['history_mm']} mm ({'converged' if r['converged'] else 'not converged'}); the shared law clears "
                          f"{r['ref_height_mm']:.1f} mm{'' if r['ref_feasible'] else ' (outside the limits)'} "
                          f"(paper: {r['paper_jump_mm']:.1f} mm at {r['paper_stress_MPa']:.1f} MPa).")
         else:
@@ -398,20 +414,28 @@ def run_study(out_dir="results/flegx-study", progress: bool = True, workers: int
               cases=(1, 2, 3, 4, 5, 6), codesign: bool = True) -> Path:
     """Configurations No. 1-4 × link cases 1-6 (PRBM) + the CB link for case 2: Table I, as
     :class:`proleg.study.Study` groups (``flegx_study``), stored in ``out_dir/store`` (resumable).
-    With ``codesign`` each configuration's law (push duration and extended pose) is also found
+    Every variant runs one shared law, found, not picked: the shortest push at which every
+    configuration (PRBM, link case 2) keeps within 520 MPa and the 77 N m wheel rating up to
+    take-off (:func:`proleg.papers.flegx_study.shared_push`, stored in ``out_dir/shared_law``,
+    its per-configuration pushes written to ``shared_law.parquet``). With ``codesign`` each configuration's law (push duration and extended pose) is also found
     by :func:`proleg.papers.flegx_codesign.optimise_table_i` (PRBM, case 2, CMA-ES at the reduced
     size :data:`CODESIGN_TRIALS`: the largest jump within 520 MPa and the 77 N m wheel rating up
-    to take-off), stored in ``out_dir/codesign``, shown beside Table I with its binding constraint."""
+    to take-off), stored in ``out_dir/codesign``, shown beside Table I with its binding constraint
+    and the shared law's clearance (its reference law)."""
     import resource
 
     from ..report.html import Report
-    from .flegx_study import STUDY_T_AFTER, ranking, run_table_i, study_groups
+    from .flegx_study import SHARED_PUSHES, STUDY_T_AFTER, ranking, run_table_i, shared_law, shared_push, study_groups
 
     wall0 = time.perf_counter()
     load0 = os.getloadavg()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    rows = run_table_i(out / "store", configurations, cases, 2, progress=progress, workers=workers)
+    shared = shared_push(configurations, store=out / "shared_law", workers=workers)
+    shared["per_configuration"].to_parquet(out / "shared_law.parquet", index=False)
+    law = shared_law(shared)
+    # the store is the law's: a rerun with the same push resumes, another push gets its own store
+    rows = run_table_i(out / "store" / f"push_{law.t_push:.5f}s", configurations, cases, 2, progress=progress, workers=workers, law=law)
     wall = time.perf_counter() - wall0
     cpu = sum(getattr(resource.getrusage(w), f) for w in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN) for f in ("ru_utime", "ru_stime"))
     tab = study_table(rows)
@@ -419,7 +443,8 @@ def run_study(out_dir="results/flegx-study", progress: bool = True, workers: int
     rep = Report("FLEGX design study: configurations No. 1-4 × link cases 1-6", "seed 002 §IV, Table I; proleg")
     rep.add_heading("What was simulated")
     rep.add_text(
-        "The countermovement jump of flegx_jump (same motion law for all) for every upper-leg configuration of Fig. 2 "
+        f"The countermovement jump of flegx_jump with one law for all (push {law.t_push:.3f} s, found: the shortest push that "
+        "keeps every configuration within the limits, below) for every upper-leg configuration of Fig. 2 "
         "and every built link, with the PRBM link, and with the Craig-Bampton link for the 250 × 70 × 3 mm strip "
         "(Table I's), up to the apex of the jump "
         f"({STUDY_T_AFTER} s after the end of the push; Table I: \"the investigated movement was the take-off phase\"). "
@@ -430,6 +455,25 @@ def run_study(out_dir="results/flegx-study", progress: bool = True, workers: int
         f"{g['name']}: {len(g['configurations']) * len(g['cases'])} variants" for g in study_groups(configurations, cases, 2))
         + "): each variant is the group's System with its own parameters (mass split, strip geometry, PRBM constants), "
         "all of a group in one vmap batch; rows in a Parquet store (store/), a rerun skips what is stored.")
+    rep.add_heading("The shared law")
+    per = shared["per_configuration"]
+    rep.add_text(
+        f"One law for all configurations, so that only the hardware differs. Its push, {shared['t_push_s']:.3f} s, is not picked "
+        "by hand: it is the shortest at which every configuration, with the PRBM link on Table I's 250 × 70 × 3 mm strip, keeps "
+        "within 520 MPa at the clamp and the 77 N m worm-wheel rating up to take-off (seed 002 §IV; flegx_study.shared_push: "
+        f"flegx_codesign.push_at_limits per configuration over {len(SHARED_PUSHES)} pushes, refined in the binding bracket, "
+        "interpolated). "
+        f"No. {shared['binding_configuration']} sets it (binding: {shared['binding']}, {shared['stress_MPa']:.0f} MPa, hip "
+        f"{shared['peak_hip_Nm']:.1f} N m, knee {shared['peak_knee_Nm']:.1f} N m); each configuration's own shortest push: "
+        + "; ".join(f"No. {int(r.configuration)} {r.t_push_s:.3f} s ({r.binding})" for r in per.itertuples()) + ". "
+        + ("At the shared push every configuration is within the limits (interpolated on its grid). " if shared["within_all"] else
+           "At the shared push, interpolated on their grids, not within the limits: "
+           + ", ".join(f"No. {int(r.configuration)}" for r in per.itertuples() if not r.within_at_shared) + ". ")
+        + "The squat, the extended pose and the other timings are flegx_jump's documented ones (assumed; the paper prints none). "
+        "The other link cases and the CB link run the same law; they may exceed the limit (flagged).")
+    rep.add_table(shared_law_table(per), "Each configuration's shortest push within the limits up to take-off (PRBM, case 2; interpolated on its "
+                  "push grid; flegx_codesign.push_at_limits, rule 'first') and, interpolated likewise, its peaks and heights at the shared "
+                  "push: the shared law takes the longest.", float_format="{:.4g}", index=False)
     rep.add_heading("Table I next to the paper")
     t1 = []
     for c in configurations:
@@ -442,10 +486,12 @@ def run_study(out_dir="results/flegx-study", progress: bool = True, workers: int
                 row["mass [kg]"] = r["total mass [kg]"]
                 row[f"{lm} jump [mm]"] = r["jump height [mm]"]
                 row[f"{lm} stress [MPa]"] = r["max stress take-off [MPa]"]
+                row[f"{lm} hip / knee torque [N m]"] = f"{r['hip torque take-off [N m]']:.1f} / {r['knee torque take-off [N m]']:.1f}"
         t1.append(row)
     t1 = pd.DataFrame(t1)
     t1.to_parquet(out / "table1.parquet", index=False)
-    rep.add_table(t1, "Link 250 × 70 × 3 mm: total mass, jump height, max stress up to take-off, proleg vs seed 002 Table I.",
+    rep.add_table(t1, "Link 250 × 70 × 3 mm at the shared law: total mass, jump height, max stress and joint torques up to "
+                  "take-off, proleg vs seed 002 Table I.",
                   float_format="{:.4g}", index=False)
     paper_rank = ranking({c: D.TABLE_I[c][1] for c in configurations})
     lines = [f"- Ranking by jump height, seed 002: {' > '.join(f'No. {c}' for c in paper_rank)}."]
@@ -457,8 +503,10 @@ def run_study(out_dir="results/flegx-study", progress: bool = True, workers: int
     for lm in ("cb", "prbm"):
         if f"{lm} stress [MPa]" in t1:
             st = t1[f"{lm} stress [MPa]"]
-            lines.append(f"- Why the ranking differs ({lm}): with one motion law for all configurations the stress up to take-off "
-                         f"spans {st.min():.0f}-{st.max():.0f} MPa, where Table I's all lie within 514.6-530.7 MPa. The paper "
+            ps = [D.TABLE_I[c][2] for c in configurations]
+            lines.append(f"- Why the ranking differs ({lm}): with one motion law for all configurations (the shortest push within the "
+                         f"limits for all, set by No. {shared['binding_configuration']}) the stress up to take-off "
+                         f"spans {st.min():.0f}-{st.max():.0f} MPa, where Table I's all lie within {min(ps):.1f}-{max(ps):.1f} MPa. The paper "
                          "\"required that the maximum value of the stresses ... was sufficiently lower than the ultimate tensile "
                          "strength\" (§IV): its laws were evidently set per configuration near that limit, so Table I compares the "
                          "heights at about equal stress, and ours at an equal law. With imposed joint motions a rigid leg's take-off "
@@ -471,7 +519,7 @@ def run_study(out_dir="results/flegx-study", progress: bool = True, workers: int
     cd_tab = None
     if codesign:
         extra: list = []
-        head, cd_tab = _codesign_section(out, configurations, extra)
+        head, cd_tab = _codesign_section(out, configurations, extra, reference={"law_t_push": law.t_push})
         lines.append(head)
         lines += extra
     flagged = tab[tab["> 510 MPa"]]
@@ -481,7 +529,8 @@ def run_study(out_dir="results/flegx-study", progress: bool = True, workers: int
     if cd_tab is not None:
         rep.add_table(cd_tab, f"Table I by co-design (PRBM, link 250 × 70 × 3 mm): each configuration's law of largest jump within "
                       f"520 MPa and the 77 N m wheel rating up to take-off (height: the foot's clearance over the flight), found by CMA-ES ({CODESIGN_TRIALS} trials, reduced; "
-                      "bench/flegx_codesign.py runs 64), beside seed 002 Table I. 'hand law': flegx_jump's 0.30 s push to (−20°, 40°).",
+                      f"bench/flegx_codesign.py runs 64), beside seed 002 Table I. 'shared law': the shared law above ({law.t_push:.3f} s push to "
+                      f"({np.rad2deg(law.extend[0]):.0f}°, {np.rad2deg(law.extend[1]):.0f}°)).",
                       float_format="{:.4g}", index=False)
     rep.add_heading("All variants")
     rep.add_table(tab, "Every run (PRBM for all cases, CB for case 2). '> 510 MPa' flags the stress up to take-off.",
@@ -501,7 +550,7 @@ def run_study(out_dir="results/flegx-study", progress: bool = True, workers: int
     fig.savefig(out / "fig1.png", dpi=110, bbox_inches="tight")
     rep.add_figure(fig, "PRBM link: jump height and stress up to take-off per configuration and link case (red band: 510-530 MPa).")
     rep.add_heading("Model")
-    rep.add_parameters(D.sources() + _law_rows(), "Parameters and sources (MODEL_DATA §3).")
+    rep.add_parameters(D.sources() + _law_rows(t_push=law.t_push), "Parameters and sources (MODEL_DATA §3).")
     rep.add_key_values({"variants": len(tab), "total wall time [s]": f"{wall:.1f}", "CPU time, all processes [s]": f"{cpu:.1f}",
                         "load average at start / end (1 min)": f"{load0[0]:.1f} / {os.getloadavg()[0]:.1f}",
                         "output folder": str(out)}, "Run")

@@ -26,6 +26,26 @@ Simulated window: the jump of :func:`~proleg.papers.flegx_jump.flegx_jump` (same
 for every variant) up to ``STUDY_T_AFTER`` after the end of the push: take-off and apex (Table
 I's "investigated movement was the take-off phase"); a variant whose apex falls on the last
 output is flagged (``apex_in_window`` false).
+
+The shared law (:func:`shared_push`). One law for all configurations is a controlled
+comparison: only the hardware differs. Its push duration is not picked by hand: it is the
+shortest push at which **every** configuration stays within the limits up to take-off (von
+Mises ≤ 520 MPa at the clamp, hip and knee torque ≤ 77 N m, the worm wheel's rating; the
+take-off inside the push: :func:`~proleg.papers.flegx_codesign.constraints`), found with the
+PRBM link on Table I's strip, link case 2 (250 × 70 × 3 mm: seed 002 §IV, "The four mechanical
+configurations were equipped with a 250 mm long, 70 mm wide and 3 mm thick flexible link. The
+simulations were performed by requiring that the maximum value of the stresses in the lower
+link was sufficiently lower than the ultimate tensile strength ..., namely between 510 and
+530MPa"). Each configuration's shortest push within the limits comes from
+:func:`~proleg.papers.flegx_codesign.push_at_limits` (a push grid, interpolated; ``rule="first"``:
+the first feasible push, since a long push that takes off late can break a limit again); the
+common law is the longest of them, so the configuration that sets it binds (its stress or
+torque at its limit, to the interpolation's accuracy) and the others, which reach their limits
+at shorter pushes, are checked within theirs at the shared push (interpolated on their grids:
+``within_at_shared``; the study's rows then give their simulated peaks). The squat, the
+extended pose and the other timings stay flegx_jump's documented ones (assumed: seed 002 prints
+no angles or timings). The other link cases and the Craig-Bampton link run the same law and
+may exceed 520 MPa: the table flags them (``> 510 MPa``); Table I reports case 2 only.
 """
 
 from __future__ import annotations
@@ -37,18 +57,28 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..errors import ModelError
 from ..robots import flegx_data as D
 from ..robots.flegx import flegx
 from .flegx_jump import MotionLaw, _add_motions, jump_metrics
 
-__all__ = ["STUDY_T_AFTER", "study_groups", "group_study", "run_table_i", "ranking"]
+__all__ = ["STUDY_T_AFTER", "SHARED_PUSHES", "SHARED_LAW_CASE", "SHARED_LAW_MODEL", "study_groups", "group_study", "run_table_i",
+           "shared_push", "shared_law", "ranking"]
 
 #: simulated time after the end of the push [s]: the apex of every variant falls inside it
 #: (measured: the apex falls 0.03 s before to 0.05 s after the push end; the landing is not needed for Table I)
 STUDY_T_AFTER = 0.2
+#: the push grid [s] of the shared law's search (:func:`shared_push`; flegx-jump's grid): the
+#: constraints' slack is interpolated between its points, then refined in the binding bracket
+SHARED_PUSHES = (0.16, 0.20, 0.25, 0.30, 0.38, 0.45)
+#: the refinement: this many pushes inside the bracket that holds the shared push
+SHARED_REFINE = 4
+#: the strip and link model the shared law is found on (module docstring): Table I's case 2, PRBM
+SHARED_LAW_CASE, SHARED_LAW_MODEL = 2, "prbm"
 #: the metrics kept as study outputs (flegx_jump docstring)
 OUTPUTS = ("jump_height", "flight_rise", "foot_clearance", "take_off_time", "apex_time", "max_stress_takeoff",
-           "max_stress", "tip_displacement", "total_mass", "peak_hip_torque", "peak_knee_torque")
+           "max_stress", "tip_displacement", "total_mass", "peak_hip_torque", "peak_knee_torque", "peak_hip_torque_takeoff",
+           "peak_knee_torque_takeoff")
 
 
 def study_groups(configurations=(1, 2, 3, 4), cases=(1, 2, 3, 4, 5, 6), cb_case: int | None = 2) -> list[dict]:
@@ -153,6 +183,10 @@ def run_table_i(store_dir, configurations=(1, 2, 3, 4), cases=(1, 2, 3, 4, 5, 6)
     ``link model``, the metrics (SI), ``> 510 MPa`` (stress up to take-off) and the batch's
     wall time per variant (compilation included).
 
+    ``law``: the one law every variant runs; default flegx_jump's documented law (push 0.30 s,
+    an assumed value) up to :data:`STUDY_T_AFTER` after the push. ``proleg run flegx-study``
+    passes the law found by :func:`shared_push` (:func:`shared_law`), not the default.
+
     The groups run in ``workers`` processes at once (default: the cores this process may use),
     longest first (CB before PRBM), each group's variants in one ``vmap`` batch: on 2 cores the
     single long CB run of No. 4 takes one core while the other groups share the other.
@@ -190,6 +224,102 @@ def run_table_i(store_dir, configurations=(1, 2, 3, 4), cases=(1, 2, 3, 4, 5, 6)
         warnings.warn(f"flegx study: {len(bad)} variants failed: " + "; ".join(f"No. {r.configuration} case {r.link_case}: {r.reason}"
                                                                           for r in bad.itertuples()), stacklevel=2)
     return tab.sort_values(["link model", "configuration", "link_case"], ignore_index=True)
+
+
+def _push_job(kw: dict) -> dict:
+    """One configuration's :func:`~proleg.papers.flegx_codesign.push_at_limits` (module-level:
+    worker processes run it)."""
+    from . import flegx_codesign as FC
+
+    return FC.push_at_limits(**kw)
+
+
+def _map(fn, jobs: list[dict], workers: int) -> list:
+    import concurrent.futures as cf
+    import multiprocessing as mp
+
+    if workers == 1 or len(jobs) <= 1:
+        return [fn(j) for j in jobs]
+    with cf.ProcessPoolExecutor(min(workers, len(jobs)), mp_context=mp.get_context("spawn")) as ex:
+        return list(ex.map(fn, jobs))
+
+
+def shared_push(configurations=(1, 2, 3, 4), link_case: int = SHARED_LAW_CASE, link_model: str = SHARED_LAW_MODEL, *,
+                pushes=SHARED_PUSHES, refine: int = SHARED_REFINE, store=None, workers: int | None = None) -> dict:
+    """The shared law's push duration (module docstring): the shortest push [s] at which every
+    configuration keeps within :func:`~proleg.papers.flegx_codesign.constraints` up to take-off.
+
+    Each configuration's shortest push within the limits is found by
+    :func:`~proleg.papers.flegx_codesign.push_at_limits` (``rule="first"``) on the grid
+    ``pushes`` [s]; the longest of them is the shared push. Then the configurations whose push
+    lies in the grid's bracket around the shared push (a < t ≤ b) are searched again with
+    ``refine`` more pushes inside it (the grid's own rows replay from ``store``), so the binding
+    limit is interpolated over ``(b - a) / (refine + 1)``, not over the grid's step. ``store``:
+    a folder, one study store per configuration under it (a rerun replays them); ``workers``:
+    processes (default the cores this process may use).
+
+    Returns a dict: ``t_push_s``, ``binding_configuration``, ``binding`` (its binding
+    constraint), ``stress_MPa``, ``peak_hip_Nm``, ``peak_knee_Nm`` (the binding
+    configuration's, interpolated at the push), ``within_all`` (every configuration within the
+    limits at the shared push, interpolated on its grid), and ``per_configuration``: a
+    DataFrame, one row per configuration: its own shortest push at the limits (``t_push_s``),
+    binding constraint, peaks and heights there (push_at_limits' row, ``feasible_after``:
+    whether every longer push of its grid is feasible), and at the shared push, interpolated
+    on its grid: ``stress_shared_MPa``, ``hip_shared_Nm``, ``knee_shared_Nm``,
+    ``height_shared_mm``, ``jump_shared_mm``, ``within_at_shared``.
+
+    Raises
+    ------
+    ModelError
+        a configuration breaks a limit at every push of the grid (lengthen ``pushes``).
+    """
+    import os
+
+    from .flegx_codesign import OBJECTIVE, _feasible_grid, constraints
+
+    configurations = tuple(configurations)
+    workers = workers or max(1, min(len(configurations), len(os.sched_getaffinity(0))))
+    grid = tuple(sorted(float(t) for t in pushes))
+
+    def job(c, ts):
+        return dict(configuration=c, link_case=link_case, link_model=link_model, pushes=ts, rule="first",
+                    store=None if store is None else Path(store) / f"no{c}_case{link_case}_{link_model}")
+
+    found = dict(zip(configurations, _map(_push_job, [job(c, grid) for c in configurations], workers), strict=True))
+    bad = {c: r["binding"] for c, r in found.items() if "t_push_s" not in r}
+    if bad:
+        raise ModelError("flegx shared law: no push of " + f"{grid} s keeps " + "; ".join(f"No. {c} within the limits ({b})" for c, b in bad.items())
+                         + ". Lengthen the pushes (SHARED_PUSHES).")
+    t_max = max(r["t_push_s"] for r in found.values())
+    if refine and t_max > grid[0]:
+        k = int(np.searchsorted(grid, t_max))  # grid[k - 1] < t_max <= grid[k]
+        a, b = grid[k - 1], grid[k]
+        fine = tuple(sorted({*grid, *np.linspace(a, b, int(refine) + 2)[1:-1].round(6).tolist()}))
+        again = [c for c, r in found.items() if r["t_push_s"] > a]
+        found.update(zip(again, _map(_push_job, [job(c, fine) for c in again], workers), strict=True))
+    t_sh = max(r["t_push_s"] for r in found.values())
+    cons = constraints()
+    s_c, h_c, k_c = list(cons)[:3]
+    rows = []
+    for c, r in found.items():
+        g = r["grid"]
+        tp = g["law_t_push"].to_numpy(float)
+        at = {x: float(np.interp(t_sh, tp, g[x].to_numpy(float))) for x in (*cons, OBJECTIVE, "jump_height")}
+        row = {k: v for k, v in r.items() if not isinstance(v, (pd.DataFrame, dict, list))}
+        row.update(grid_rows=len(g), stress_shared_MPa=at[s_c] / 1e6, hip_shared_Nm=at[h_c], knee_shared_Nm=at[k_c],
+                   height_shared_mm=1e3 * at[OBJECTIVE], jump_shared_mm=1e3 * at["jump_height"],
+                   within_at_shared=bool(_feasible_grid(pd.DataFrame([at]), cons)[0]))
+        rows.append(row)
+    per = pd.DataFrame(rows)
+    top = per.iloc[int(per["t_push_s"].to_numpy(float).argmax())]
+    return {"t_push_s": float(top["t_push_s"]), "binding_configuration": int(top["configuration"]), "binding": str(top["binding"]),
+            "stress_MPa": float(top["stress_MPa"]), "peak_hip_Nm": float(top["peak_hip_Nm"]), "peak_knee_Nm": float(top["peak_knee_Nm"]),
+            "within_all": bool(per["within_at_shared"].all()), "link_case": link_case, "link_model": link_model, "per_configuration": per}
+
+
+def shared_law(shared: dict) -> MotionLaw:
+    """The study's law with the push of :func:`shared_push` (the rest: flegx_jump's documented law)."""
+    return MotionLaw(t_push=float(shared["t_push_s"]), t_after=STUDY_T_AFTER)
 
 
 def _bar(show: bool, total: int):
