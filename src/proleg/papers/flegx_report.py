@@ -355,8 +355,12 @@ def shared_law_table(per: pd.DataFrame) -> pd.DataFrame:
         "configuration": per["configuration"], "shortest push at the limits [s]": per["t_push_s"], "binding": per["binding"],
         "stress to take-off [MPa]": per["stress_MPa"], "hip / knee torque to take-off [N m]": hk("peak_hip_Nm", "peak_knee_Nm"),
         "longer pushes feasible": per["feasible_after"], "sets the shared law": per["t_push_s"] == per["t_push_s"].max(),
-        "at the shared push: stress [MPa]": per["stress_shared_MPa"], "hip / knee [N m]": hk("hip_shared_Nm", "knee_shared_Nm"),
-        "foot clearance [mm]": per["height_shared_mm"], "jump height [mm]": per["jump_shared_mm"], "within the limits": per["within_at_shared"]})
+        # peaks at the shared push interpolated on each configuration's search grid (a check that
+        # every configuration is within the limits there); heights are not shown: interpolated
+        # across take-off timing they can be far off (No. 4: 20.4 mm against 8.7 mm simulated),
+        # and Table I's rows hold the simulated heights at this law
+        "at the shared push (interpolated): stress [MPa]": per["stress_shared_MPa"],
+        "hip / knee [N m] (interpolated)": hk("hip_shared_Nm", "knee_shared_Nm"), "within the limits": per["within_at_shared"]})
 
 
 #: the CLI's co-design size (reduced: 24 CMA-ES trials in generations of 6 after a 6-push start
@@ -472,8 +476,8 @@ def run_study(out_dir="results/flegx-study", progress: bool = True, workers: int
         + "The squat, the extended pose and the other timings are flegx_jump's documented ones (assumed; the paper prints none). "
         "The other link cases and the CB link run the same law; they may exceed the limit (flagged).")
     rep.add_table(shared_law_table(per), "Each configuration's shortest push within the limits up to take-off (PRBM, case 2; interpolated on its "
-                  "push grid; flegx_codesign.push_at_limits, rule 'first') and, interpolated likewise, its peaks and heights at the shared "
-                  "push: the shared law takes the longest.", float_format="{:.4g}", index=False)
+                  "push grid; flegx_codesign.push_at_limits, rule 'first') and, interpolated likewise, its peaks at the shared "
+                  "push: the shared law takes the longest. The heights at that law are Table I's simulated rows below.", float_format="{:.4g}", index=False)
     rep.add_heading("Table I next to the paper")
     t1 = []
     for c in configurations:
