@@ -84,6 +84,13 @@ TABLES = {
     "scout2-bound": [("metrics.parquet", "Bounding gait metrics, Model I and Model II (seed 003 §5)", None)],
     "hyq-stand": [("feet.parquet", "Whole HyQ settled on four feet: vertical ground reaction per foot against its weight share", None),
                   ("joints.parquet", "Servo torques against the static closed form (moments of distal gravity and foot reaction)", None)],
+    "hyq-trot": [("metrics.parquet", "The whole HyQ trotting at 1 m/s: hydraulic cylinders with chamber pressures against ideal torque "
+                  "sources (every numeric metric of the run)", None)],
+    "hyq-jump": [("metrics.parquet", "The whole HyQ jumping: the designed push on the cylinders against the same law on ideal torque "
+                  "sources", None),
+                 ("limit_check.parquet", "What limits the jump: the height gained with each limit raised alone (and together)",
+                  ["raised", "jump_torque_limit", "hyq_supply_pressure", "hyq_valve_flow", "height", "height_gain", "limit",
+                   "max_joint_torque", "max_chamber_pressure", "share_torque", "share_pressure", "share_flow", "status"])],
     "hyq-bushing-study": [("table.parquet", "8-bushing drop against the pins' radial stiffness (a proleg.study)",
                            ["pin_stiffness", "peak_hip_force", "peak_knee_force", "status", "steps", "newton_iterations"])],
     "torque-sensor-study": [("designs.parquet", "Torque-sensor concepts and the optimised design (seed 001 Problem 2)", None),

@@ -177,7 +177,7 @@ def run_jump(out_dir="results/hyq-jump", progress: bool = True, *, n_trials: int
     from ..report.animate import animation_iframe
     from ..robots.hyq import LEGS
     from ..robots.hyq_jump import hyq_jump
-    from .hyq_trot_report import pressure_figures
+    from .hyq_trot_report import metrics_table, pressure_figures
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -198,6 +198,7 @@ def run_jump(out_dir="results/hyq-jump", progress: bool = True, *, n_trials: int
     lim.to_parquet(out / "limit_check.parquet")
     h, tq = runs["hydraulic"].metrics, runs["torque"].metrics
     pd.DataFrame({a: {k: v for k, v in r.metrics.items()} for a, r in runs.items()}).to_csv(out / "metrics.csv")
+    metrics_table({a: r.metrics for a, r in runs.items()}).to_parquet(out / "metrics.parquet", index=False)
     named = h["limit"]
     gains = dict(zip(lim["raised"], lim["height_gain"]))
     binds = binding_confirmed(named, gains)

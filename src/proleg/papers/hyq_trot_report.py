@@ -17,6 +17,17 @@ from ..robots.hyq import LEGS
 from ..robots.hyq_trot import RATING, hyq_trot
 
 
+def metrics_table(metrics: dict):
+    """{variant: {metric: value}} → one row per numeric metric, one column per variant (the
+    Parquet table the docs show; text-valued metrics stay in metrics.csv and the report)."""
+    import numbers
+
+    import pandas as pd
+
+    keys = [k for k in next(iter(metrics.values())) if all(isinstance(m.get(k), numbers.Real) for m in metrics.values())]
+    return pd.DataFrame({"metric": keys, **{a: [float(m[k]) for k in keys] for a, m in metrics.items()}})
+
+
 def pressure_figures(rep, t, ho, names):
     """All eight cylinders, one panel per leg and joint (4 legs × HFE, KFE): chamber pressures
     p_A, p_B against the supply and the cavitation floor, and the valve flows Q_A, Q_B; then the
@@ -78,6 +89,7 @@ def run_trot(out_dir="results/hyq-trot", progress: bool = True, *, speed: float 
         r.result.to_parquet(out / f"hyq_trot_{a}.parquet")
     table = pd.DataFrame({a: r.metrics for a, r in runs.items()})
     table.to_csv(out / "metrics.csv")
+    metrics_table({a: r.metrics for a, r in runs.items()}).to_parquet(out / "metrics.parquet", index=False)
     h, tq = runs["hydraulic"].metrics, runs["torque"].metrics
     from ..robots.hyq_trot import flow_demand
 
