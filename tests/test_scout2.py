@@ -116,6 +116,30 @@ def test_bounds_steadily_period_one(run_I):
     assert m["height_min"] > 0.25
 
 
+def test_bounding_run_is_not_stalled(run_I):
+    m = run_I.metrics
+    assert not m["stalled"]
+    # every stance-brake ends in lift-off within a fraction of a stride
+    assert m["longest_brake"] < 0.5 / m["stride_frequency"]
+
+
+def test_standing_on_braked_legs_is_the_stall():
+    """Seed 003's controller from the standing start at Table 4, Table 6 per virtual leg: the
+    front leg sweeps to its 0° limit in a fraction of the spring's stance time, brakes, and the
+    robot ends at rest on both braked, compressed legs, which never lift off (the fixed point
+    stance_brake_stall detects; bench/results/scout2_stall.md measures it)."""
+    run = scout2_bound("I", 2.5, transient=1.0)
+    m = run.metrics
+    assert m["stalled"] and not m["fell"] and m["strides"] == 0
+    r = run.result
+    assert abs(r.part("body").velocity[-1, 0]) < 0.2
+    lift = run.info.params.liftoff_compression
+    for leg in ("back", "front"):
+        compression = -np.asarray(r.joint(run.info.leg_joints[leg]).translation)[-1]
+        assert compression > 5 * lift  # held down by the robot's weight: no lift-off can come
+        assert np.asarray(r.contact(f"{leg}_toe_contact").normal_force)[-1] > 50.0
+
+
 def test_energy_bookkeeping(run_I):
     e = energy_balance(run_I.result, run_I.info)
     # battery = hip work + copper + gear losses (an identity of the drive law, K_ω = K_T)
