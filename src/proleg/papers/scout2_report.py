@@ -447,6 +447,9 @@ def _summary(runs, extra, targets, sens, range_tab, cal) -> dict:
 def _gait(name, m):
     if m["fell"]:
         return f"{name} falls."
+    if m.get("stalled"):
+        return (f"{name} stalls: it ends standing on both legs held in stance-brake, which only lift-off ends "
+                f"(the longest stance-brake lasts {m['longest_brake']:.2f} s; bench/scout2_stall.py).")
     if m["strides"] == 0 or not np.isfinite(m["forward_speed"]):
         return f"{name} stops bounding (no steady stride)."
     if m["period"] not in (1, 2):

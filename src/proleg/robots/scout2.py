@@ -37,8 +37,18 @@
   96 % at full torque, less at part load). Their values are estimates with ranges
   (scout2_data); the report calibrates the leg friction on one specific resistance.
 
-Initial condition (both models): at rest in the standing posture, legs vertical, released a
-few centimetres above touching; the controller must bring the robot into the bound.
+Leg geometry: Table 6's leg length 0.323 m (Table 2 "l0 nominal leg length") is the hip-to-ground
+length of the fully extended leg: the toe sphere's centre sits ``toe_radius`` up the leg from
+the toe's ground point (the contact marker ``{leg}_toe_centre``; ``{leg}_toe`` is the ground
+point, where the leg spring ends).
+
+Initial condition (both models): at rest in the standing posture, legs vertical, released
+``height − leg_length`` (3 cm) above touching; the controller must bring the robot into the
+bound. Seed 003 prints no start-up procedure, and its controller cannot start from rest by
+itself: stance-brake is left only at lift-off (§3.1, Fig. 4), so a robot standing at rest on
+both braked legs stays there (the *stance-brake stall*, :func:`proleg.papers.scout2_bound.stance_brake_stall`).
+The small drop is this model's start (an interpretation, kept as the ``height`` parameter): the
+controllers start in flight, servo the legs to the touchdown angles and land on both.
 
 The controller (§3.1, Table 4) is a :class:`proleg.StateMachine` per virtual leg at 1 kHz, see
 :func:`bounding_controller`. Every number is a keyword argument (names in
