@@ -5,7 +5,7 @@ the evidence for where the bound is lost, one row per run:
 
 - ``start``: "standing" is the builder's start (at rest, legs vertical, 3 cm drop, controller in
   flight); "cycle apex" is the former start (the apex of Model I's limit cycle with the damping
-  halved: height 0.344 m, 1.5 m/s, 2.16 rad/s nose-up, back leg at 19°) — a state inside the old
+  halved: height 0.344 m with the former l0 + r leg, 0.324 m now, 1.5 m/s, 2.16 rad/s nose-up, back leg at 19°) — a state inside the old
   cycle, so a run that loses the bound from there shows that the gait, not the start, fails.
   That cycle was found with Table 6 read per physical leg; the rows now use scout2's default
   reading (per virtual leg), where it is just a bounding-like start. bench/scout2_setpoints.py
@@ -30,7 +30,9 @@ from common import add_output_args, emit, log
 
 COLUMNS = ["model", "start", "damping [N s/m]", "strides", "stride speeds [m/s]", "fell", "longest brake [s]",
            "leg dampers [J]", "toe slip [J]", "negative hip work [J]", "dissipated [J]"]
-APEX = dict(height=0.344, speed=1.5, pitch_rate=2.16)
+# height 0.324 m: the former apex's 0.344 m less the 2 cm by which the toe's ground point moved up
+# when the toe sphere went inside the 0.323 m leg (the same toe clearance as the cycle was found with)
+APEX = dict(height=0.324, speed=1.5, pitch_rate=2.16)
 
 
 def _row(model, start, damping, t_end):

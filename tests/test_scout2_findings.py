@@ -60,3 +60,11 @@ def test_findings_report_a_fall_and_no_bound():
     text = findings(s)
     assert "Model I falls" in text and "stops bounding" in text
     assert "does not settle into a steady gait" in text and "0.367 m/s on average" in text
+
+
+def test_findings_report_the_stance_brake_stall():
+    s = summary()
+    s["I"] = {**metrics(np.nan, np.nan, period=0, strides=0), "stalled": True, "longest_brake": 4.4}
+    s2 = {**s, "I": {**s["I"], "longest_brake": 4.4 * 1.07}}
+    a, b = findings(s), findings(s2)
+    assert "Model I stalls" in a and "4.40 s" in a and "4.71 s" in b

@@ -42,7 +42,7 @@ from ..solvers.galpha import GeneralizedAlpha
 from ..robots import scout2_data as D
 from ..robots.scout2 import LEGS, scout2
 
-__all__ = ["BoundRun", "scout2_bound", "stride_table", "gait_metrics", "detect_period", "energy_balance", "pitch_deg"]
+__all__ = ["BoundRun", "scout2_bound", "stride_table", "gait_metrics", "stance_brake_stall", "detect_period", "energy_balance", "pitch_deg"]
 
 G = 9.81
 PERIOD_WINDOW = 10  # the period is judged on the last this-many steady strides (a converged gait)
@@ -153,14 +153,40 @@ def detect_period(features, tol: float = 0.03, min_strides: int = 4) -> int:
     return 0
 
 
+STALL_WINDOW = 0.5  # s: both legs braked throughout this final window is the stall (see stance_brake_stall)
+
+
+def stance_brake_stall(result: Result, window: float = STALL_WINDOW) -> tuple[bool, float]:
+    """(stalled, longest brake [s]): the stance-brake stall of the seed's controller.
+
+    Seed 003 §3.1 / Fig. 4: stance-brake is left only at lift-off. A robot standing on both
+    legs never lifts off, so both legs braked with neither lifting off is a fixed point of the
+    controller: no leg reaches touchdown again, so no stance-retraction injects energy. The run
+    is *stalled* when both controllers are in stance-brake throughout its last ``window``
+    seconds; ``longest brake`` is the longest uninterrupted stance-brake of either leg.
+    """
+    t = np.asarray(result.t)
+    st = {leg: np.asarray(result.controller(f"{leg}_controller").state[:, 0]) for leg in LEGS}
+    tail = t >= t[-1] - window
+    stalled = bool(t[-1] - t[0] >= window and all(np.all(s[tail] == 2) for s in st.values()))
+    longest = 0.0
+    for s in st.values():
+        edges = np.flatnonzero(np.diff(np.r_[0, (s == 2).astype(int), 0]))
+        if len(edges):
+            longest = max(longest, float(np.max(t[np.minimum(edges[1::2], len(t) - 1)] - t[edges[0::2]])))
+    return stalled, longest
+
+
 def gait_metrics(result: Result, strides: pd.DataFrame, system: System, *, transient: float, period_tol: float = 0.03) -> dict:
-    """The issue's metrics from the steady strides (those starting at or after ``transient``)."""
+    """The issue's metrics from the steady strides (those starting at or after ``transient``);
+    ``stalled`` and ``longest_brake`` [s] from :func:`stance_brake_stall`."""
     pitch = pitch_deg(result)
     z = result.part("body").position[:, 2]
     fell = bool(np.any(np.abs(pitch) > 60.0) or np.any(z < 0.12))
     steady = strides[strides["start [s]"] >= transient] if len(strides) else strides
     m = total_mass(system)
-    out = {"strides": int(len(steady)), "fell": fell}
+    stalled, longest = stance_brake_stall(result)
+    out = {"strides": int(len(steady)), "fell": fell, "stalled": stalled and not fell, "longest_brake": longest}
     if len(steady) == 0 or fell:
         out.update(period=0, forward_speed=float("nan"))
         for k in ("stride_frequency", "duty_factor_back", "duty_factor_front", "pitch_max", "pitch_min", "height_max", "height_min",

@@ -301,7 +301,7 @@ def run_bound(out_dir, *, t_end: float = 6.0, low_speed: bool = True, sensitivit
         f"centred {p.leg_bearing:g} m below the hip) and a gearbox drag of {p.gear_drag * 1e3:g} mN m + {p.gear_viscous:g} N m s/rad per "
         f"motor that makes the efficiency depend on load, speed and the direction of power flow. Table 6's leg damping is used as "
         f"printed and, as seed 003 §2.3, Table 2 and §5.1 imply, per {runs['Model II'].info.per} leg ({p.leg_stiffness:g} N/m, {p.leg_damping:g} N s/m). Both models start the same way: at rest in the standing posture "
-        f"(legs vertical, no speed), released {1e3 * (p.height - p.leg_length - p.toe_radius):.0f} mm above touching; the controller "
+        f"(legs vertical, no speed), released {1e3 * (p.height - p.leg_length):.0f} mm above touching; the controller "
         f"brings them into the bound. Runs last {t_end:g} s; strides from back-leg lift-off starting after {t_end / 2:g} s are the steady ones."
     )
     rep.add_heading("Calibrated on (not evidence)")
@@ -447,6 +447,9 @@ def _summary(runs, extra, targets, sens, range_tab, cal) -> dict:
 def _gait(name, m):
     if m["fell"]:
         return f"{name} falls."
+    if m.get("stalled"):
+        return (f"{name} stalls: it ends standing on both legs held in stance-brake, which only lift-off ends "
+                f"(the longest stance-brake lasts {m['longest_brake']:.2f} s; bench/scout2_stall.py).")
     if m["strides"] == 0 or not np.isfinite(m["forward_speed"]):
         return f"{name} stops bounding (no steady stride)."
     if m["period"] not in (1, 2):

@@ -37,8 +37,18 @@
   96 % at full torque, less at part load). Their values are estimates with ranges
   (scout2_data); the report calibrates the leg friction on one specific resistance.
 
-Initial condition (both models): at rest in the standing posture, legs vertical, released a
-few centimetres above touching; the controller must bring the robot into the bound.
+Leg geometry: Table 6's leg length 0.323 m (Table 2 "l0 nominal leg length") is the hip-to-ground
+length of the fully extended leg: the toe sphere's centre sits ``toe_radius`` up the leg from
+the toe's ground point (the contact marker ``{leg}_toe_centre``; ``{leg}_toe`` is the ground
+point, where the leg spring ends).
+
+Initial condition (both models): at rest in the standing posture, legs vertical, released
+``height − leg_length`` (3 cm) above touching; the controller must bring the robot into the
+bound. Seed 003 prints no start-up procedure, and its controller cannot start from rest by
+itself: stance-brake is left only at lift-off (§3.1, Fig. 4), so a robot standing at rest on
+both braked legs stays there (the *stance-brake stall*, :func:`proleg.papers.scout2_bound.stance_brake_stall`).
+The small drop is this model's start (an interpretation, kept as the ``height`` parameter): the
+controllers start in flight, servo the legs to the touchdown angles and land on both.
 
 The controller (§3.1, Table 4) is a :class:`proleg.StateMachine` per virtual leg at 1 kHz, see
 :func:`bounding_controller`. Every number is a keyword argument (names in
@@ -137,7 +147,7 @@ class Scout2Params:
     # initial condition: at rest in the standing posture (legs vertical, no speed, no pitch),
     # released ``drop`` above the height where the toes touch; the controller starts in flight
     # and brings the robot into the bound (the same start for both models)
-    height: float = D.LEG_LENGTH + 0.02 + 0.03  # m, body COM above ground at t = 0 (toe radius + 3 cm drop)
+    height: float = D.LEG_LENGTH + 0.03  # m, body COM above ground at t = 0 (leg length l0 to the toe's ground point + 3 cm drop)
     speed: float = 0.0  # m/s forward
     pitch: float = 0.0  # rad, nose-up positive
     pitch_rate: float = 0.0  # rad/s, nose-up positive
@@ -189,8 +199,10 @@ def _check(p: Scout2Params, variant, per):
             raise ModelError(f"scout2: sweep_{leg} ({sw / deg:.1f}°) must be below touchdown_{leg} ({td / deg:.1f}°): stance sweeps the leg back.")
     if not 0 < p.lower_mass_fraction < 1:
         raise ModelError(f"scout2: lower_mass_fraction must be in (0, 1), got {p.lower_mass_fraction}.")
-    if p.height - p.leg_length - p.toe_radius < -0.05 * p.leg_length:
-        raise ModelError(f"scout2: initial height {p.height} m puts the toes {p.leg_length + p.toe_radius - p.height:.3f} m into the ground.")
+    if not 0 < p.toe_radius < 0.5 * p.leg_length:
+        raise ModelError(f"scout2: toe_radius {p.toe_radius} m must be positive and below half the leg length {p.leg_length} m (the sphere sits inside the leg's length).")
+    if p.height - p.leg_length < -0.05 * p.leg_length:
+        raise ModelError(f"scout2: initial height {p.height} m puts the toes {p.leg_length - p.height:.3f} m into the ground.")
     if p.angle_sensor not in ("motor", "leg"):
         raise ModelError(f"scout2: angle_sensor must be 'motor' or 'leg', got {p.angle_sensor!r}.")
 
@@ -272,13 +284,17 @@ def scout2(model: str = "I", *, per: str = D.TABLE6_READING, **params) -> Model:
         lower = mdl.add_part(f"{leg}_lower", mass=ml_, inertia=(Il, Il, Il), position=at((xh, 0, -p.lower_com)), orientation=Rb, velocity=vel((xh, 0, -p.lower_com)), angular_velocity=wb)
         hj = mdl.add_joint(Revolute(f"{leg}_hip", upper, body, at=hip, axis=Rb @ np.array(HIP_AXIS)))
         lj = mdl.add_joint(Prismatic(f"{leg}_leg", lower, upper, at=hip, axis=ax))
-        toe = at((xh, 0, -p.leg_length))
+        toe = at((xh, 0, -p.leg_length))  # the toe's ground point at full extension (Table 6 leg length)
         m_hip = mdl.add_marker(upper, f"{leg}_spring_top", hip)
         m_toe = mdl.add_marker(lower, f"{leg}_toe", toe)
+        # the toe sphere's centre sits one radius up the leg, so that at the extension stop the
+        # hip-to-ground distance of a vertical leg is the nominal leg length l0 (seed 003 Table 2
+        # "l0 Nominal leg length", Table 6 0.323 m), not l0 + radius
+        m_toe_c = mdl.add_marker(lower, f"{leg}_toe_centre", at((xh, 0, -(p.leg_length - p.toe_radius))))
         mdl.add_force(SpringDamper(f"{leg}_spring", m_toe, m_hip, stiffness=p.leg_stiffness * n_leg, damping=p.leg_damping * n_leg, free_length=p.leg_length))
         mdl.add_force(JointStop(f"{leg}_stop", lj, upper=0.0, stiffness=p.stop_stiffness * n_leg, damping=p.stop_damping * n_leg, penetration=1e-3))
         mdl.add_contact(SphereContact(
-            f"{leg}_toe_contact", m_toe, radius=p.toe_radius, stiffness=p.contact_stiffness, exponent=p.contact_exponent,
+            f"{leg}_toe_contact", m_toe_c, radius=p.toe_radius, stiffness=p.contact_stiffness, exponent=p.contact_exponent,
             damping=p.contact_damping, penetration=p.contact_penetration, mu_static=p.mu, mu_dynamic=p.mu,
             v_stiction=p.v_stiction, v_friction=p.v_friction,
         ))
