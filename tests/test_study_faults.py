@@ -261,6 +261,69 @@ def test_a_200_variant_study_survives_a_killed_worker(tmp_path):
     _check_exactly_once(tab, rows, 200)
 
 
+def _spring_pendulum():
+    """test_study.py's double pendulum with a tip spring: a cheap model (one small compile)."""
+    m = pl.Model("kill_pendulum", gravity=(0, 0, -9.81))
+    up = m.add_part("upper", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(0.5, 0, 0))
+    lo = m.add_part("lower", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(1.5, 0, 0))
+    m.add_joint(pl.Revolute("shoulder", m.ground, up, at=(0, 0, 0), axis=(0, 1, 0)))
+    m.add_joint(pl.Revolute("elbow", up, lo, at=(1, 0, 0), axis=(0, 1, 0)))
+    tip = m.add_marker(lo, "tip", position=(2, 0, 0))
+    anchor = m.add_marker(m.ground, "anchor", position=(2, 0, -1))
+    m.add_force(pl.SpringDamper("spring", tip, anchor, stiffness=50.0, damping=0.5, free_length=1.0))
+    return pl.assemble(m)
+
+
+@pytest.mark.slow  # 200 simulations on 2 spawned workers plus the same 200 in this process (~2-4 min on 2 cores)
+def test_a_200_variant_model_study_survives_a_worker_killed_mid_batch(tmp_path):
+    """A model study (the spring pendulum over 200 stiffnesses, 20 batches of 10 on 2 worker
+    processes): once 3 batches are stored, a thread SIGKILLs a worker while the batches are in
+    flight, as the OOM killer would. Every variant ends in the store exactly once, all succeed
+    (no variant died twice: the kill is not theirs), and each row equals the same variant run in
+    this process (lanes=1: every variant at its own steps, so a re-run batch gives the same
+    numbers; 1e-10 m leaves room for another summation order only)."""
+    import multiprocessing as mp
+    import random
+    import threading
+
+    n = 200
+    ks = [float(k) for k in np.geomspace(10.0, 1000.0, n)]
+    st = pl.study.Study(_spring_pendulum(), {"spring.stiffness": ks},
+                        {"x_end": lambda r: r.part("lower").position[-1, 0]}, dict(t_end=0.1, dt_output=0.01))
+    parts = tmp_path / "s" / "rows"
+    killed, stop = [], threading.Event()
+
+    def killer():
+        rng = random.Random(0)
+        while not stop.wait(0.05):
+            if len(list(parts.glob("part-*.parquet"))) >= 3:
+                kids = [p for p in mp.active_children() if p.is_alive()]
+                if kids:
+                    victim = rng.choice(kids)
+                    os.kill(victim.pid, signal.SIGKILL)
+                    killed.append(victim.pid)
+                    return
+
+    t = threading.Thread(target=killer, daemon=True)
+    t.start()
+    try:
+        tab = st.run(design="grid", executor="processes", workers=2, batch_size=10, lanes=1, store=tmp_path / "s",
+                     progress=False)
+    finally:
+        stop.set()
+        t.join()
+    assert killed, "the study ended before a worker could be killed"
+    rows = pl.study.Store(tmp_path / "s").read()
+    assert len(rows) == n and rows["key"].is_unique, "a variant is missing or stored twice"
+    assert len(tab) == n and set(tab["key"]) == set(rows["key"])
+    assert (rows["status"] == "success").all(), rows.loc[rows["status"] != "success", ["status", "reason"]]
+    assert len(set(rows["worker"])) >= 3, set(rows["worker"])  # the broken pool's batches ran on new workers
+    ref = st.run(design="grid", executor="vmap", workers=1, lanes=1, progress=False).set_index("key")
+    got = rows.set_index("key").loc[ref.index]
+    np.testing.assert_allclose(got["x_end"], ref["x_end"], rtol=0, atol=1e-10)
+    np.testing.assert_array_equal(got["steps"], ref["steps"])
+
+
 def hyq_builder(cylinder_length):
     return pl.assemble(pl.robots.hyq_leg(joints="bushings8", cylinder_length=float(cylinder_length)))
 
