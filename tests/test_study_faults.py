@@ -212,6 +212,28 @@ def test_a_loop_over_new_models_stays_below_the_guard(monkeypatch):
     assert peak < memguard.max_map_count() // 2
 
 
+def test_a_dead_workers_signal_is_named_even_while_it_is_being_reaped():
+    """The pool's manager thread joins a dead worker while the driver reads its exit code; a
+    read in between finds none. The slow 200-variant kill test failed so under load (reason
+    '... alone (killed)' instead of SIGKILL, 2 runs of 2): the code is read again until known."""
+    import types
+
+    from proleg.study.executors import _exit_codes
+
+    class Reaped:
+        reads = 0
+
+        @property
+        def exitcode(self):  # unknown for the first reads, then the signal, as in the race
+            Reaped.reads += 1
+            return None if Reaped.reads < 4 else -signal.SIGKILL
+
+    assert _exit_codes(types.SimpleNamespace(_processes={1: Reaped()})) == "SIGKILL"
+    alive = types.SimpleNamespace(exitcode=None)
+    assert _exit_codes(types.SimpleNamespace(_processes={1: alive}), wait_s=0.05) == "killed"
+    assert _exit_codes(types.SimpleNamespace(_processes=None)) == "killed"
+
+
 def _kill_study(tmp_path, n, kill_after_first=True):
     import multiprocessing as mp
 
