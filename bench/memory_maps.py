@@ -14,6 +14,11 @@ Modes (``--modes``):
 ``unguarded``   ``loop`` with proleg.memguard's thresholds raised out of reach: what the process
                 would hold without it (use a small N: ~100 MB per model)
 
+``--trace FILE`` appends one JSON line per model (mode, index, wall, maps, RSS, clears; for
+``processes`` the largest worker's maps and RSS when its batch came back), flushed as it goes, so
+a run stopped early still shows whether maps and RSS plateau. ``--max-wall S`` ends a mode after
+S seconds and reports the models it reached (a study stops after the batch in flight).
+
 Columns: ``peak maps`` (sampled every 0.2 s by a thread, and after every model), ``limit / 2``
 (half the kernel's vm.max_map_count, the target), ``peak RSS``, ``maps/model`` and
 ``RSS/model`` over the first models (before any clear), ``clears`` (memguard's cache clears;
@@ -39,6 +44,33 @@ sys.path.insert(0, os.path.dirname(__file__))
 from common import add_output_args, emit, log  # noqa: E402
 
 T_END, DT_OUT = 0.02, 1e-3
+
+
+class Budget(Exception):
+    """A mode ran out of its ``--max-wall`` seconds."""
+
+
+class Trace:
+    """One JSON line per model, flushed at once (a run cut short keeps its trace)."""
+
+    def __init__(self, path, mode, max_wall):
+        self.f = open(path, "a") if path else None
+        self.mode, self.max_wall, self.t0, self.n = mode, max_wall, time.perf_counter(), 0
+
+    def add(self, maps, rss, clears, pid=None):
+        import json
+
+        self.n += 1
+        rec = {"mode": self.mode, "i": self.n, "t": round(time.perf_counter() - self.t0, 2), "maps": maps,
+               "rss_mib": round(rss / 2**20, 1), "clears": clears, "load": round(os.getloadavg()[0], 2)}
+        if pid is not None:
+            rec["pid"] = pid
+        if self.f:
+            self.f.write(json.dumps(rec) + "\n")
+            self.f.flush()
+
+    def over(self):
+        return self.max_wall is not None and time.perf_counter() - self.t0 > self.max_wall
 
 
 def lengths(n):
@@ -108,43 +140,60 @@ class Sampler:
         self._t.join()
 
 
-def run_loop(n):
+def run_loop(n, tr):
     import proleg as pl
     from proleg import memguard
 
     trace = []
     with Sampler() as s:
         for i, L in enumerate(lengths(n)):
+            if tr.over():
+                break
             pl.simulate(pl.assemble(pl.robots.hyq_leg(joints="bushings8", cylinder_length=float(L))), t_end=T_END,
                             dt_output=DT_OUT, progress=False)
             s.sample()
             trace.append((_maps(), _rss()))
+            tr.add(*trace[-1], memguard.clears())
             if i % 10 == 0:
                 log(f"loop {i}/{n}: maps {trace[-1][0]}, RSS {trace[-1][1] / 2**20:.0f} MiB, clears {memguard.clears()}")
-    return s, trace, memguard.clears(), n, 0
+    return s, trace, memguard.clears(), len(trace), 0
 
 
-def run_study(n, executor):
+def run_study(n, executor, tr):
     import proleg as pl
     from proleg import memguard
 
     st = pl.study.Study(hyq_builder, {"cylinder_length": list(map(float, lengths(n)))},
                         {"z_slider": lambda r: r.part("slider").position[-1, 2]}, dict(t_end=T_END, dt_output=DT_OUT))
-    trace = []
+    trace, done = [], []
 
     def on_batch(rows):
-        trace.append((_maps(), _rss()))
-        if len(trace) % 10 == 0:
-            log(f"{executor} {len(trace)} batches")
+        done.extend(r["status"] == "success" for r in rows)
+        if executor == "processes":  # the worker that ran this batch, sampled as it returns
+            w = str(rows[0].get("worker", "")).rpartition(":")[2]
+            pid = int(w) if w.isdigit() else None
+            kids = [pid] if pid else s.pids()
+            m, r = max(((_maps(p), _rss(p)) for p in kids), default=(0, 0))
+            tr.add(m, r, s.drops, pid)
+        else:
+            trace.append((_maps(), _rss()))
+            tr.add(*trace[-1], memguard.clears())
+        if len(done) % 10 == 0:
+            log(f"{executor} {len(done)} batches, last {tr.mode} trace maps/RSS sampled")
+        if tr.over():
+            raise Budget
 
     from proleg.study.executors import recycled_pools
 
     recycled = recycled_pools()
     with Sampler(children=executor == "processes") as s:
-        tab = st.run(design="grid", executor=executor, batch_size=1, workers=2 if executor == "processes" else 1,
-                     progress=False, on_batch=on_batch)
+        try:
+            st.run(design="grid", executor=executor, batch_size=1, workers=2 if executor == "processes" else 1,
+                   progress=False, on_batch=on_batch)
+        except Budget:
+            log(f"{executor}: --max-wall reached after {len(done)} models")
         s.sample()
-    ok = int((tab["status"] == "success").sum())
+    ok = int(sum(done))
     if executor == "processes":
         from proleg.study.executors import shutdown_pools
 
@@ -161,12 +210,53 @@ def per_model(trace, k=4):
     return (m1 - m0) / k, (r1 - r0) / k / 2**20
 
 
+def summarize(path, every=5):
+    """Markdown of a ``--trace`` file: per mode the models reached, the largest maps and RSS
+    after any model, the clears, and per clear cycle (models between two clears) the largest
+    maps and RSS, so a bound shows as equal peaks cycle after cycle; then every ``every``-th
+    model's line."""
+    import json
+
+    recs = [json.loads(line) for line in open(path) if line.strip()]
+    out = []
+    for mode in dict.fromkeys(r["mode"] for r in recs):
+        rs = [r for r in recs if r["mode"] == mode]
+        out += [f"## {mode}: {len(rs)} models, {rs[-1]['t']:.0f} s, load {min(r['load'] for r in rs):.1f}-{max(r['load'] for r in rs):.1f}", "",
+                f"largest after a model: maps {max(r['maps'] for r in rs):,} (limit / 2 = {max_map_count_half():,}), "
+                f"RSS {max(r['rss_mib'] for r in rs):,.0f} MiB; clears {rs[-1]['clears']}", "",
+                "| cycle | models | largest maps | largest RSS [MiB] | maps after its first model | RSS after its first model [MiB] |",
+                "|---:|---|---:|---:|---:|---:|"]
+        cycles = {}
+        for r in rs:
+            cycles.setdefault(r["clears"], []).append(r)
+        for c, cr in cycles.items():
+            out.append(f"| {c} | {cr[0]['i']}-{cr[-1]['i']} | {max(r['maps'] for r in cr):,} | {max(r['rss_mib'] for r in cr):,.0f} "
+                       f"| {cr[0]['maps']:,} | {cr[0]['rss_mib']:,.0f} |")
+        out += ["", "| model | t [s] | maps | RSS [MiB] | clears | load |", "|---:|---:|---:|---:|---:|---:|"]
+        for r in rs:
+            if r["i"] % every == 0 or r["i"] == 1 or r is rs[-1]:
+                out.append(f"| {r['i']} | {r['t']:.0f} | {r['maps']:,} | {r['rss_mib']:,.0f} | {r['clears']} | {r['load']:.1f} |")
+        out.append("")
+    return "\n".join(out)
+
+
+def max_map_count_half():
+    with open("/proc/sys/vm/max_map_count") as f:
+        return int(f.read()) // 2
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--n", type=int, default=300, help="models (distinct cylinder lengths) per mode")
     p.add_argument("--modes", default="loop,builder,processes", help="comma-separated: loop, builder, processes, unguarded")
+    p.add_argument("--trace", default=None, help="append one JSON line per model to this file")
+    p.add_argument("--max-wall", type=float, default=None, help="seconds per mode; a mode stops there (models reached are reported)")
+    p.add_argument("--summarize", default=None, help="print the per-mode summary of a --trace file and exit")
     add_output_args(p, "memory_maps")
     args = p.parse_args()
+    if args.summarize:
+        print(summarize(args.summarize))
+        return
     import jax
 
     jax.config.update("jax_enable_x64", True)
@@ -176,17 +266,18 @@ def main():
     rows = []
     for mode in args.modes.split(","):
         t0 = time.perf_counter()
+        tr = Trace(args.trace, mode, args.max_wall)
         if mode == "unguarded":
             os.environ["PROLEG_MAX_MAPS"] = os.environ["PROLEG_MAX_RSS_BYTES"] = str(2**62)
-            s, trace, clears, ok, recycles = run_loop(args.n)
+            s, trace, clears, ok, recycles = run_loop(args.n, tr)
             os.environ.pop("PROLEG_MAX_MAPS")
             os.environ.pop("PROLEG_MAX_RSS_BYTES")
         elif mode == "loop":
-            s, trace, clears, ok, recycles = run_loop(args.n)
+            s, trace, clears, ok, recycles = run_loop(args.n, tr)
         else:
-            s, trace, clears, ok, recycles = run_study(args.n, "local" if mode == "builder" else "processes")
+            s, trace, clears, ok, recycles = run_study(args.n, "local" if mode == "builder" else "processes", tr)
         dm, dr = per_model(trace)
-        rows.append({"mode": mode, "models": args.n, "succeeded": ok, "peak maps": s.peak_maps, "limit / 2": limit // 2,
+        rows.append({"mode": mode, "models": tr.n, "of": args.n, "succeeded": ok, "peak maps": s.peak_maps, "limit / 2": limit // 2,
                      "peak RSS [MiB]": round(s.peak_rss / 2**20), "maps/model": dm, "RSS/model [MiB]": dr,
                      "clears": clears, "recycles": recycles, "wall [s]": round(time.perf_counter() - t0, 1),
                      "status": "ok" if s.peak_maps < limit // 2 else "OVER"})
@@ -194,7 +285,7 @@ def main():
         jax.clear_caches()
     mmaps, mrss = memguard.limits()
     emit(args, "Memory maps and RSS over many distinct HyQ-leg models", rows,
-         ["mode", "models", "succeeded", "peak maps", "limit / 2", "peak RSS [MiB]", "maps/model", "RSS/model [MiB]", "clears", "recycles", "wall [s]", "status"],
+         ["mode", "models", "of", "succeeded", "peak maps", "limit / 2", "peak RSS [MiB]", "maps/model", "RSS/model [MiB]", "clears", "recycles", "wall [s]", "status"],
          meta={"memguard maps threshold": mmaps, "memguard RSS threshold [MiB]": mrss // 2**20, "vm.max_map_count": limit})
 
 

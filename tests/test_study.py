@@ -67,6 +67,23 @@ def test_lhs_is_stratified_and_sobol_balanced():
     assert len(g) == 9 and sorted(set(g["k"])) == pytest.approx([1e2, 1e4, 1e6])
 
 
+def test_a_design_too_large_is_refused_before_any_array(monkeypatch):
+    """A design size that would exhaust the memory (a typo'd n, too many grid levels) is a
+    ModelError naming the size and the limit, at once: the fuzzing of study files found
+    n = 2.8e16 raising numpy's MemoryError (201 PiB) instead."""
+    sp = pl.study.Space({"a": (0.0, 1.0), "b": (0.0, 1.0), "c": [1.0, 2.0]})
+    for design in ("lhs", "sobol", "grid"):
+        with pytest.raises(pl.ModelError, match="PROLEG_MAX_DESIGN_ROWS"):
+            make_design(sp, design, 2.82834477918851e16)
+    with pytest.raises(pl.ModelError, match=r"2,000,000 variants \(a grid of 1000 x 1000 x 2\)"):
+        monkeypatch.setenv("PROLEG_MAX_DESIGN_ROWS", "1000000")
+        make_design(sp, "grid", 1000)  # 2e6 rows: refused without building them
+    for bad in (float("nan"), float("inf"), 2.5, 0, True, "3"):
+        with pytest.raises(pl.ModelError, match="≥ 1 and an integer"):
+            make_design(sp, "lhs", bad)
+    assert len(make_design(sp, "grid", 3.0)) == 18 and len(make_design(sp, "lhs", np.int64(4))) == 4
+
+
 # -- running and the store --------------------------------------------------------------------
 def test_grid_study_equals_a_loop_of_simulate(system, tmp_path):
     st = make_study(system)

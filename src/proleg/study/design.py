@@ -13,6 +13,7 @@ A choice gets the stratum ``floor(u k)`` of a unit-cube sample, so LHS keeps the
 from __future__ import annotations
 
 import itertools
+import math
 import warnings
 from pathlib import Path
 
@@ -20,9 +21,41 @@ import numpy as np
 import pandas as pd
 
 from ..errors import DataError, ModelError
-from .space import Fixed, Space
+from .space import Choice, Fixed, Space
 
 DESIGNS = ("grid", "lhs", "sobol", "table")
+
+#: Most variants a generated design may have (``PROLEG_MAX_DESIGN_ROWS``): 10 million, months
+#: of simulation at the measured ~1 variant/s of a HyQ leg, and ~80 MB per column. A larger
+#: ``n`` (a typo, a grid of too many levels in too many dimensions) is refused before any array
+#: is made, instead of exhausting the memory or hanging in itertools.product.
+MAX_DESIGN_ROWS = 10_000_000
+
+
+def _max_rows() -> int:
+    import os
+
+    try:
+        v = int(float(os.environ.get("PROLEG_MAX_DESIGN_ROWS", "")))
+        return v if v > 0 else MAX_DESIGN_ROWS
+    except ValueError:
+        return MAX_DESIGN_ROWS
+
+
+def _size(n, what: str) -> int:
+    """``n`` as a positive integer (an integral float is accepted), else a ModelError."""
+    ok = isinstance(n, (int, np.integer)) and not isinstance(n, bool)
+    if not ok and isinstance(n, (float, np.floating)) and np.isfinite(n) and float(n).is_integer():
+        n, ok = int(n), True
+    if not ok or int(n) < 1:
+        raise ModelError(f"Study: {what} must be ≥ 1 and an integer (got n = {n!r}).")
+    return int(n)
+
+
+def _check_rows(rows: int, how: str) -> None:
+    if rows > _max_rows():
+        raise ModelError(f"Study: the design would have {rows:,} variants ({how}); at most {_max_rows():,} are allowed "
+                         "(PROLEG_MAX_DESIGN_ROWS). Use a smaller n, or fewer grid levels or dimensions.")
 
 
 def unit_samples(kind: str, d: int, n: int, seed: int | None) -> np.ndarray:
@@ -53,15 +86,22 @@ def make_design(space: Space, design="lhs", n: int | None = None, seed: int | No
             return _table(space, design)
         raise ModelError(f"Study: unknown design '{design}'; valid: {list(DESIGNS[:3])}, or a table (DataFrame, dict, CSV/Parquet path).")
     if design == "grid":
-        if space.continuous and (n is None or int(n) < 1):  # choices and fixed values need no n
-            raise ModelError(f"Study: a grid design needs n ≥ 1 levels per continuous dimension (got n = {n!r}).")
-        axes = [d.grid(int(n or 1)) if not isinstance(d, Fixed) else [d.value] for d in space.dims.values()]
+        levels = 1
+        if space.continuous:  # choices and fixed values need no n
+            if n is None:
+                raise ModelError(f"Study: a grid design needs n ≥ 1 levels per continuous dimension (got n = {n!r}).")
+            levels = _size(n, "a grid design's levels per continuous dimension")
+        counts = [1 if isinstance(d, Fixed) else len(d.values) if isinstance(d, Choice) else levels for d in space.dims.values()]
+        _check_rows(math.prod(counts), f"a grid of {' x '.join(map(str, counts))}")
+        axes = [d.grid(levels) if not isinstance(d, Fixed) else [d.value] for d in space.dims.values()]
         rows = list(itertools.product(*axes))
         return pd.DataFrame(rows, columns=list(space.dims))
-    if n is None or int(n) < 1:
+    if n is None:
         raise ModelError(f"Study: design size n must be ≥ 1 (got n = {n!r}).")
+    n = _size(n, "design size n")
+    _check_rows(n, f"{design} n = {n:,}")
     sampled = space.sampled
-    u = unit_samples(design, len(sampled), int(n), seed) if sampled else np.zeros((int(n), 0))
+    u = unit_samples(design, len(sampled), n, seed) if sampled else np.zeros((n, 0))
     return pd.DataFrame(space.from_unit(u))
 
 

@@ -444,19 +444,29 @@ def recycled_pools() -> int:
 MAX_WORKER_DEATHS = max(1, int(os.environ.get("PROLEG_MAX_WORKER_DEATHS", "2") or 2))
 
 
-def _exit_codes(pool) -> str:
-    """How the pool's dead workers ended ("SIGKILL", "exit code 1"), as far as it still knows."""
+def _exit_codes(pool, wait_s: float = 2.0) -> str:
+    """How the pool's dead workers ended ("SIGKILL", "exit code 1"), as far as it still knows.
+
+    The pool's manager thread reaps the dead worker (``join``) while this thread reads its exit
+    code: a read between the thread's ``waitpid`` and its storing the code finds none (the
+    process is already reaped). The codes are therefore read again for up to ``wait_s`` seconds
+    until one is known; "killed" if none ever is."""
     import signal
 
-    out = []
-    for p in list((getattr(pool, "_processes", None) or {}).values()):
-        code = getattr(p, "exitcode", None)
-        if code:
-            try:
-                out.append(signal.Signals(-code).name if code < 0 else f"exit code {code}")
-            except ValueError:
-                out.append(f"exit code {code}")
-    return ", ".join(sorted(set(out))) or "killed"
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    deadline = time.monotonic() + wait_s
+    while True:
+        out = []
+        for p in procs:
+            code = getattr(p, "exitcode", None)
+            if code:
+                try:
+                    out.append(signal.Signals(-code).name if code < 0 else f"exit code {code}")
+                except ValueError:
+                    out.append(f"exit code {code}")
+        if out or not procs or time.monotonic() > deadline:
+            return ", ".join(sorted(set(out))) or "killed"
+        time.sleep(0.02)
 
 
 def _worker_died_rows(job, batch, reason) -> list[dict]:
