@@ -13,20 +13,13 @@ import pytest
 
 import proleg as pl
 from proleg.study.design import make_design
+from models import spring_pendulum
 
 KW = dict(t_end=0.1, dt_output=0.01)
 
 
 def pendulum():
-    m = pl.Model("study_pendulum", gravity=(0, 0, -9.81))
-    up = m.add_part("upper", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(0.5, 0, 0))
-    lo = m.add_part("lower", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(1.5, 0, 0))
-    m.add_joint(pl.Revolute("shoulder", m.ground, up, at=(0, 0, 0), axis=(0, 1, 0)))
-    m.add_joint(pl.Revolute("elbow", up, lo, at=(1, 0, 0), axis=(0, 1, 0)))
-    tip = m.add_marker(lo, "tip", position=(2, 0, 0))
-    anchor = m.add_marker(m.ground, "anchor", position=(2, 0, -1))
-    m.add_force(pl.SpringDamper("spring", tip, anchor, stiffness=50.0, damping=0.5, free_length=1.0))
-    return pl.assemble(m)
+    return spring_pendulum("study_pendulum")
 
 
 @pytest.fixture(scope="module")

@@ -26,6 +26,7 @@ import pytest
 
 import proleg as pl
 from proleg import memguard
+from models import spring_pendulum
 
 
 def test_memguard_clears_compiled_code_past_its_threshold(monkeypatch):
@@ -285,16 +286,8 @@ def test_a_200_variant_study_survives_a_killed_worker(tmp_path):
 
 
 def _spring_pendulum():
-    """test_study.py's double pendulum with a tip spring: a cheap model (one small compile)."""
-    m = pl.Model("kill_pendulum", gravity=(0, 0, -9.81))
-    up = m.add_part("upper", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(0.5, 0, 0))
-    lo = m.add_part("lower", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(1.5, 0, 0))
-    m.add_joint(pl.Revolute("shoulder", m.ground, up, at=(0, 0, 0), axis=(0, 1, 0)))
-    m.add_joint(pl.Revolute("elbow", up, lo, at=(1, 0, 0), axis=(0, 1, 0)))
-    tip = m.add_marker(lo, "tip", position=(2, 0, 0))
-    anchor = m.add_marker(m.ground, "anchor", position=(2, 0, -1))
-    m.add_force(pl.SpringDamper("spring", tip, anchor, stiffness=50.0, damping=0.5, free_length=1.0))
-    return pl.assemble(m)
+    """A cheap model (one small compile)."""
+    return spring_pendulum("kill_pendulum")
 
 
 @pytest.mark.slow  # 200 simulations on 2 spawned workers plus the same 200 in this process (~2-4 min on 2 cores)

@@ -11,19 +11,12 @@ import pytest
 import proleg as pl
 from proleg.analyses import sweep as sweep_mod
 from proleg.errors import Status
+from models import spring_pendulum
 
 
 @pytest.fixture(scope="module")
 def system():
-    m = pl.Model("sweep_pendulum", gravity=(0, 0, -9.81))
-    up = m.add_part("upper", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(0.5, 0, 0))
-    lo = m.add_part("lower", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(1.5, 0, 0))
-    m.add_joint(pl.Revolute("shoulder", m.ground, up, at=(0, 0, 0), axis=(0, 1, 0)))
-    m.add_joint(pl.Revolute("elbow", up, lo, at=(1, 0, 0), axis=(0, 1, 0)))
-    tip = m.add_marker(lo, "tip", position=(2, 0, 0))
-    anchor = m.add_marker(m.ground, "anchor", position=(2, 0, -1))
-    m.add_force(pl.SpringDamper("spring", tip, anchor, stiffness=50.0, damping=0.5, free_length=1.0))
-    return pl.assemble(m)
+    return spring_pendulum("sweep_pendulum")
 
 
 KW = dict(t_end=0.2, dt_output=0.01, integrator=pl.GeneralizedAlpha(dt_min=1e-5))
