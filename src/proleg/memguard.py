@@ -78,7 +78,9 @@ def _total_memory() -> int:
         return 16 * 2**30
 
 
-def _env_int(name: str, default: int) -> int:
+def env_int(name: str, default: int) -> int:
+    """A positive integer setting from the environment variable ``name`` (a float spelling such
+    as "1e9" is accepted); ``default`` when it is unset, not a number, or not positive."""
     try:
         v = int(float(os.environ.get(name, "")))
         return v if v > 0 else default
@@ -98,7 +100,7 @@ def limits() -> tuple[int, int]:
     rss = min(total // 4, MAX_RSS_DEFAULT)
     if _share["workers"]:
         rss = min(rss, total // (2 * _share["workers"]))
-    return _env_int("PROLEG_MAX_MAPS", max_map_count() // 4), _env_int("PROLEG_MAX_RSS_BYTES", rss)
+    return env_int("PROLEG_MAX_MAPS", max_map_count() // 4), env_int("PROLEG_MAX_RSS_BYTES", rss)
 
 
 def _trim_heap() -> bool:

@@ -428,9 +428,14 @@ def _slacks(rows: pd.DataFrame, cons: dict) -> dict:
     return {c: np.array([slack(op, b, v) for v in rows[c].to_numpy(float)]) for c, (op, b) in cons.items()}
 
 
+def _all_hold(sl: dict) -> np.ndarray:
+    """Per grid row: every constraint's slack (:func:`_slacks`) is non-negative."""
+    return np.all(np.stack(list(sl.values())) >= 0, axis=0)
+
+
 def _feasible_grid(rows: pd.DataFrame, cons: dict) -> np.ndarray:
     """Per grid row: every constraint holds."""
-    return np.all(np.stack(list(_slacks(rows, cons).values())) >= 0, axis=0)
+    return _all_hold(_slacks(rows, cons))
 
 
 def _push_limits(rows: pd.DataFrame, cons: dict, rule: str = "settled") -> tuple[dict, bool]:
@@ -444,7 +449,7 @@ def _push_limits(rows: pd.DataFrame, cons: dict, rule: str = "settled") -> tuple
     sl = _slacks(rows, cons)
     monotone = bool(np.all(np.diff(h) <= 0) and all(np.all(np.diff(v) >= 0) for v in sl.values()))
     if rule == "first":
-        ok = np.flatnonzero(np.all(np.stack(list(sl.values())) >= 0, axis=0))
+        ok = np.flatnonzero(_all_hold(sl))
         if not ok.size:
             return {c: (math.nan if np.any(v < 0) else tp[0]) for c, v in sl.items()}, monotone
         k = int(ok[0])

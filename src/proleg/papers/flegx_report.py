@@ -63,7 +63,9 @@ def run_jobs(jobs: list[dict], workers: int | None = None, progress: bool = True
     import concurrent.futures as cf
     import multiprocessing as mp
 
-    workers = workers or max(1, min(len(jobs), len(os.sched_getaffinity(0))))
+    from .flegx_study import default_workers
+
+    workers = workers or default_workers(len(jobs))
     out = {}
     t0 = time.perf_counter()
     if workers == 1:

@@ -193,10 +193,9 @@ def run_table_i(store_dir, configurations=(1, 2, 3, 4), cases=(1, 2, 3, 4, 5, 6)
     """
     import concurrent.futures as cf
     import multiprocessing as mp
-    import os
 
     groups = study_groups(configurations, cases, cb_case)
-    workers = workers or max(1, min(len(groups), len(os.sched_getaffinity(0))))
+    workers = workers or default_workers(len(groups))
     groups.sort(key=lambda g: -_cost(g))
     frames = {}
     bar = _bar(progress, sum(len(g["configurations"]) * len(g["cases"]) for g in groups))
@@ -224,6 +223,18 @@ def run_table_i(store_dir, configurations=(1, 2, 3, 4), cases=(1, 2, 3, 4, 5, 6)
         warnings.warn(f"flegx study: {len(bad)} variants failed: " + "; ".join(f"No. {r.configuration} case {r.link_case}: {r.reason}"
                                                                           for r in bad.itertuples()), stacklevel=2)
     return tab.sort_values(["link model", "configuration", "link_case"], ignore_index=True)
+
+
+def default_workers(n_jobs: int) -> int:
+    """Processes for ``n_jobs`` independent FLEGX runs: no more than the jobs, nor than the cores
+    this process may use (its affinity mask; the CPU count where the OS has none)."""
+    import os
+
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        cores = os.cpu_count() or 1
+    return max(1, min(n_jobs, cores))
 
 
 def _push_job(kw: dict) -> dict:
@@ -273,12 +284,10 @@ def shared_push(configurations=(1, 2, 3, 4), link_case: int = SHARED_LAW_CASE, l
     ModelError
         a configuration breaks a limit at every push of the grid (lengthen ``pushes``).
     """
-    import os
-
     from .flegx_codesign import OBJECTIVE, _feasible_grid, constraints
 
     configurations = tuple(configurations)
-    workers = workers or max(1, min(len(configurations), len(os.sched_getaffinity(0))))
+    workers = workers or default_workers(len(configurations))
     grid = tuple(sorted(float(t) for t in pushes))
 
     def job(c, ts):

@@ -33,13 +33,9 @@ MAX_DESIGN_ROWS = 10_000_000
 
 
 def _max_rows() -> int:
-    import os
+    from ..memguard import env_int
 
-    try:
-        v = int(float(os.environ.get("PROLEG_MAX_DESIGN_ROWS", "")))
-        return v if v > 0 else MAX_DESIGN_ROWS
-    except ValueError:
-        return MAX_DESIGN_ROWS
+    return env_int("PROLEG_MAX_DESIGN_ROWS", MAX_DESIGN_ROWS)
 
 
 def _size(n, what: str) -> int:
@@ -53,8 +49,9 @@ def _size(n, what: str) -> int:
 
 
 def _check_rows(rows: int, how: str) -> None:
-    if rows > _max_rows():
-        raise ModelError(f"Study: the design would have {rows:,} variants ({how}); at most {_max_rows():,} are allowed "
+    limit = _max_rows()
+    if rows > limit:
+        raise ModelError(f"Study: the design would have {rows:,} variants ({how}); at most {limit:,} are allowed "
                          "(PROLEG_MAX_DESIGN_ROWS). Use a smaller n, or fewer grid levels or dimensions.")
 
 
