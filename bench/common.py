@@ -29,15 +29,69 @@ def _early_blas_threads(argv=None):
                 os.environ[k] = argv[i + 1]
 
 
+def _busy_fractions(cores, interval=0.2):
+    """Busy fraction of each core over ``interval`` seconds, from /proc/stat (None where the
+    file is missing: not Linux)."""
+    import time
+
+    def sample():
+        out = {}
+        with open("/proc/stat") as f:
+            for line in f:
+                head, *vals = line.split()
+                if head.startswith("cpu") and head != "cpu":
+                    v = [int(x) for x in vals]
+                    out[int(head[3:])] = (v[3] + (v[4] if len(v) > 4 else 0), sum(v))  # idle + iowait, total
+        return out
+
+    try:
+        a = sample()
+        time.sleep(interval)
+        b = sample()
+    except OSError:
+        return None
+    busy = {}
+    for c in cores:
+        if c in a and c in b and b[c][1] > a[c][1]:
+            busy[c] = 1.0 - (b[c][0] - a[c][0]) / (b[c][1] - a[c][1])
+        else:
+            busy[c] = 0.0
+    return busy
+
+
+def pick_cores(n, allowed, busy=None):
+    """The ``n`` cores of ``allowed`` to run on: the least busy ones (``busy``: core -> busy
+    fraction), ties by core number, so that two benchmarks started with ``--cpus 1`` on an idle
+    2-core machine do not both land on core 0; the first ``n`` where nothing is known."""
+    allowed = sorted(allowed)
+    n = max(1, min(int(n), len(allowed)))
+    if not busy:
+        return allowed[:n]
+    return sorted(sorted(allowed, key=lambda c: (round(busy.get(c, 0.0), 1), c))[:n])
+
+
 def _early_cpus(argv=None):
-    """``--cpus N`` pins this process to its first N cores before JAX starts (XLA-CPU sizes its
-    thread pool from the affinity mask)."""
+    """``--cpus N`` pins this process to N cores before JAX starts (XLA-CPU sizes its thread pool
+    from the affinity mask): the N least busy of its allowed cores over 0.2 s, or exactly the
+    cores listed by ``--cores 0,2``."""
     argv = sys.argv if argv is None else argv
-    if "--cpus" in argv:
+    if not hasattr(os, "sched_setaffinity"):
+        return
+    allowed = os.sched_getaffinity(0)
+    if "--cores" in argv:
+        i = argv.index("--cores")
+        if i + 1 < len(argv):
+            want = {int(c) for c in argv[i + 1].split(",") if c.strip()}
+            bad = want - allowed
+            if bad:
+                raise SystemExit(f"--cores {argv[i + 1]}: cores {sorted(bad)} are not available to this process (allowed: {sorted(allowed)}).")
+            os.sched_setaffinity(0, want)
+    elif "--cpus" in argv:
         i = argv.index("--cpus")
-        if i + 1 < len(argv) and hasattr(os, "sched_setaffinity"):
-            cores = sorted(os.sched_getaffinity(0))[: int(argv[i + 1])]
-            os.sched_setaffinity(0, cores)
+        if i + 1 < len(argv):
+            n = int(argv[i + 1])
+            busy = _busy_fractions(allowed) if n < len(allowed) else None
+            os.sched_setaffinity(0, pick_cores(n, allowed, busy))
 
 
 def _early_cache_setting(argv=None):
@@ -436,8 +490,9 @@ def add_output_args(parser: argparse.ArgumentParser, name: str):
     )
     parser.add_argument(
         "--cpus", type=int, default=None,
-        help="run on this many cores (sched_setaffinity before JAX starts; XLA sizes its thread pool from it)",
+        help="run on this many cores, the least busy ones (sched_setaffinity before JAX starts; XLA sizes its thread pool from it)",
     )
+    parser.add_argument("--cores", default=None, help="run on exactly these cores, e.g. 1 or 0,2 (instead of --cpus)")
     parser.add_argument("--json", action="store_true", help="print the table as ONE JSON object on stdout, nothing else")
     parser.add_argument(
         "--out", default=str(RESULTS_DIR / f"{name}.md"), help="write the table here (.md) and beside it (.json); '' to skip"
