@@ -21,7 +21,13 @@ This script measures the mechanism, one row per run (Model I unless ``--models``
   m_e = m I / (I + m L²) the mass a leg at one end of the body feels (m whole robot, I pitch
   inertia, L half hip spacing): the time the spring needs to throw the body off the leg;
 - rates over the run [W]: hip work in retraction (the energy the controller injects), negative
-  hip work in brake, leg dampers; and ``first-second hip work [J]``.
+  hip work in brake, leg dampers; and ``first-second hip work [J]``;
+- the brake itself (seed 003 §5.2 says Model I's sweep-limit controller "is not able to hold the
+  back leg at the desired sweep limit angle"): ``back overshoot [deg]``, the furthest the back
+  leg (the hip joint, not the encoder) goes past its sweep limit in stance-brake;
+  ``brake torque [N m]``, the largest leg torque either brake applies, against ``current limit
+  [N m]``, the drive's α K_T i_max (Eq. 6); ``Δv in back brake [m/s]``, the mean change of the
+  body's forward speed over one back stance-brake episode (negative: the brake slows the robot).
 
 Run: ``python bench/scout2_stall.py`` (about 1 min per Model I run on 2 cores).
 """
@@ -36,7 +42,8 @@ from common import add_output_args, emit, log
 from scout2_setpoints import energy_split
 
 COLUMNS = ["model", "start", "case", "strides", "speed [m/s]", "fell", "stalled", "longest brake [s]", "front retraction [s]",
-           "front brake [s]", "stance half-period [s]", "retraction work [W]", "brake negative work [W]", "leg dampers [W]", "wall [s]"]
+           "front brake [s]", "stance half-period [s]", "retraction work [W]", "brake negative work [W]", "leg dampers [W]", "back overshoot [deg]", "brake torque [N m]",
+           "current limit [N m]", "Δv in back brake [m/s]", "wall [s]"]
 IN_GAIT = dict(height=0.324, speed=1.5, pitch_rate=2.16)
 CASES = {
     "virtual (as printed)": dict(per="virtual"),
@@ -44,6 +51,8 @@ CASES = {
     "physical": dict(per="physical"),
     "physical, damping halved": dict(per="physical", leg_damping=27.5),
     "virtual, touchdown +12°": dict(per="virtual", delta=12.0),
+    "virtual, one motor per virtual leg": dict(per="virtual", motors_per_leg=1),
+    "virtual, toe friction 1.5": dict(per="virtual", mu=1.5),
 }
 
 
@@ -57,6 +66,33 @@ def phase_durations(run, leg="front"):
         edges = np.flatnonzero(np.diff(np.r_[0, (st == code).astype(int), 0]))
         d = t[np.minimum(edges[1::2], len(t) - 1)] - t[edges[0::2]]
         out[k] = float(d.mean()) if len(d) else float("nan")
+    return out
+
+
+def brake_phase(run) -> dict:
+    """How the stance-brake holds: the back leg's largest overshoot past its sweep limit [deg],
+    the largest brake torque at the leg [N m] (either leg), the drive's current-limit torque
+    [N m] and the mean change of forward speed over a back-brake episode [m/s]."""
+    r, info = run.result, run.info
+    t = np.asarray(r.t)
+    vx = np.asarray(r.part("body").velocity[:, 0])
+    out = {"back overshoot [deg]": float("nan"), "brake torque [N m]": float("nan"), "Δv in back brake [m/s]": float("nan")}
+    torques = []
+    for leg in ("back", "front"):
+        st = np.asarray(r.controller(f"{leg}_controller").state[:, 0])
+        on = st == 2
+        if not on.any():
+            continue
+        torques.append(float(np.max(np.abs(np.asarray(r.actuator(info.motors[leg]).leg_torque)[on]))))
+        if leg == "back":
+            phi = np.asarray(r.joint("back_hip").angle)
+            sweep = float(info.params.sweep_back)
+            out["back overshoot [deg]"] = float(np.degrees(np.max(sweep - phi[on])))
+            edges = np.flatnonzero(np.diff(np.r_[0, on.astype(int), 0]))
+            i0, i1 = edges[0::2], np.minimum(edges[1::2], len(t) - 1)
+            out["Δv in back brake [m/s]"] = float(np.mean(vx[i1] - vx[i0]))
+    if torques:
+        out["brake torque [N m]"] = max(torques)
     return out
 
 
@@ -104,7 +140,8 @@ def main():
                     "fell": m["fell"], "stalled": stalled(run), "longest brake [s]": e["longest brake [s]"],
                     "front retraction [s]": ph["retraction"], "front brake [s]": ph["brake"], "stance half-period [s]": half_period(run),
                     "retraction work [W]": e["retraction work [W]"], "brake negative work [W]": e["brake negative work [W]"],
-                    "leg dampers [W]": e["leg dampers [W]"], "wall [s]": run.wall_time,
+                    "leg dampers [W]": e["leg dampers [W]"], **brake_phase(run),
+                    "current limit [N m]": float(run.info.drive.tau_current_limit), "wall [s]": run.wall_time,
                 })
                 log(str(rows[-1]))
     emit(args, f"Scout II: the stance-brake stall, measured ({args.t_end:g} s per run)", rows, COLUMNS,
