@@ -61,7 +61,8 @@ def _busy_fractions(cores, interval=0.2):
 
 def pick_cores(n, allowed, busy=None):
     """The ``n`` cores of ``allowed`` to run on: the least busy ones (``busy``: core -> busy
-    fraction), ties by core number, so that two benchmarks started with ``--cpus 1`` on an idle
+    fraction, compared to one decimal so that sampling noise does not reorder idle cores), ties by
+    core number, so that two benchmarks started with ``--cpus 1`` on an idle
     2-core machine do not both land on core 0; the first ``n`` where nothing is known."""
     allowed = sorted(allowed)
     n = max(1, min(int(n), len(allowed)))

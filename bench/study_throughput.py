@@ -16,6 +16,7 @@ import argparse
 import os
 import platform
 import shutil
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -24,17 +25,13 @@ import pandas as pd
 
 import proleg as pl
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from models import spring_pendulum  # noqa: E402  (one definition, shared with the tests)
+
 
 def pendulum_study():
-    m = pl.Model("bench_pendulum", gravity=(0, 0, -9.81))
-    up = m.add_part("upper", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(0.5, 0, 0))
-    lo = m.add_part("lower", mass=1.0, inertia=(0.01, 0.09, 0.09), position=(1.5, 0, 0))
-    m.add_joint(pl.Revolute("shoulder", m.ground, up, at=(0, 0, 0), axis=(0, 1, 0)))
-    m.add_joint(pl.Revolute("elbow", up, lo, at=(1, 0, 0), axis=(0, 1, 0)))
-    tip = m.add_marker(lo, "tip", position=(2, 0, 0))
-    anchor = m.add_marker(m.ground, "anchor", position=(2, 0, -1))
-    m.add_force(pl.SpringDamper("spring", tip, anchor, stiffness=50.0, damping=0.5, free_length=1.0))
-    return pl.study.Study(pl.assemble(m), space={"spring.stiffness": (10.0, 1000.0), "spring.damping": (0.1, 1.0)},
+    """The tests' spring double pendulum (tests/models.py) as a two-parameter study."""
+    return pl.study.Study(spring_pendulum("bench_pendulum"), space={"spring.stiffness": (10.0, 1000.0), "spring.damping": (0.1, 1.0)},
                           outputs={"x_end": _x_end}, simulate=dict(t_end=1.0, dt_output=0.01))
 
 

@@ -16,7 +16,7 @@ def test_the_least_busy_cores_are_picked():
     assert common.pick_cores(1, busy, busy) == [3]
     assert common.pick_cores(2, busy, busy) == [1, 3]
     assert common.pick_cores(3, busy, busy) == [1, 2, 3]
-    # within 0.05 of each other counts as equally busy: the lower core number wins
+    # busy fractions are compared to one decimal (0.02 and 0.01 both 0.0): the lower core wins
     assert common.pick_cores(1, {0, 1}, {0: 0.02, 1: 0.01}) == [0]
 
 

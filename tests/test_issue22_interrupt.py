@@ -97,15 +97,16 @@ def test_sigint_keeps_what_was_computed(tmp_path):
         # one: a fraction of its start-up (import, compile, two chunks), under the same load. So
         # 3× the measured start-up, at least 120 s; a child that ignored SIGINT would go on for
         # 1e4 s of simulated time and fail here with TimeoutExpired.
+        limit = max(120.0, 3.0 * ready_s)
         try:
-            out, err = proc.communicate(timeout=max(120.0, 3.0 * ready_s))
+            out, err = proc.communicate(timeout=limit)
         except subprocess.TimeoutExpired:
             # Where is it stuck? Every thread's stack (faulthandler, above), then fail with it.
             proc.send_signal(signal.SIGUSR1)
             time.sleep(2.0)
             proc.kill()
             out, err = proc.communicate()
-            pytest.fail(f"the child did not exit within {max(120.0, 3.0 * ready_s):.0f} s of SIGINT "
+            pytest.fail(f"the child did not exit within {limit:.0f} s of SIGINT "
                         f"(ready after {ready_s:.0f} s); its threads:\n{err[-6000:]}")
     finally:
         if proc.poll() is None:
