@@ -496,6 +496,8 @@ class CachedJit:
         return static, dyn
 
     def __call__(self, *args):
+        if _tracing(args):  # inside another trace: inlined (traced_raw's reason)
+            return traced_raw(self)(*args)
         entry = self._entry(args)
         if entry is None:
             return self.jitted(*args)
@@ -584,12 +586,13 @@ class CachedJit:
     def _flat(self, static, treedef):
         """``fn`` as a function of the flat leaves of its non-static arguments."""
         sidx = self.static_argnums
+        call = traced_raw(self)
 
         def flat(*lv):
             dyn = list(jax.tree_util.tree_unflatten(treedef, lv))
             it_s, it_d = iter(static), iter(dyn)
             full = [next(it_s) if i in sidx else next(it_d) for i in range(len(static) + len(dyn))]
-            return self.jitted(*full)
+            return call(*full)
 
         flat.__name__ = flat.__qualname__ = getattr(self.fn, "__name__", "flat")  # JAX's logs name the function
         return flat
@@ -601,6 +604,30 @@ class CachedJit:
             return export.export(jax.jit(self._flat(static, treedef)), platforms=("cpu",))(*specs)
         except Exception:  # an export limitation (or the user's error, which plain jit raises again)
             return None
+
+
+def _tracing(args) -> bool:
+    return any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves(args))
+
+
+def traced_raw(fn):
+    """The Python function behind a jit wrapper (``jax.jit``, :class:`CachedJit`, equinox's
+    ``filter_jit``), to be called inside a trace that is compiled as a whole.
+
+    A nested jit of a long-lived function keeps its arguments: JAX's trace caches are keyed
+    weakly on the function but hold the argument structure (a System's topology, with its
+    model) and the traced jaxpr strongly, and ``trace_to_jaxpr``'s cache has no size limit. A
+    process that simulates one new model after another then grew about 10 MiB per model for as
+    long as it ran, although proleg keeps only :attr:`CachedJit.MEMO` executables per function
+    (bench/memory_maps.py; issue 34). Called inline, the function leaves nothing behind once
+    the outer trace's own entry is dropped; the compiled program is the same, as XLA inlines
+    nested calls. A ``jax.jit`` object given to :class:`CachedJit` keeps its own jit (its
+    static arguments are its own)."""
+    if isinstance(fn, CachedJit):
+        return fn.jitted if hasattr(fn.fn, "lower") else fn.fn
+    if hasattr(fn, "lower") and hasattr(fn, "__wrapped__"):
+        return fn.__wrapped__
+    return fn
 
 
 def _load(st, kind, name, key):

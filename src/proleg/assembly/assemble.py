@@ -207,11 +207,24 @@ _TRACE_HINT = (
 )
 
 
+def _eval_shape(fn, *args):
+    """``jax.eval_shape(fn, *args)`` with each System argument's topology closed over, only its
+    parameters passed: JAX keeps the argument structures of its calls in a cache of 4,096
+    entries, and a topology there would keep its whole model alive after the user dropped it
+    (a loop over new models grew by each one; compile_cache.traced_raw has the other half)."""
+    topos = [a.topo if isinstance(a, System) else None for a in args]
+
+    def split(*xs):
+        return fn(*(System(x, t) if t is not None else x for x, t in zip(xs, topos)))
+
+    return jax.eval_shape(split, *(a.params if isinstance(a, System) else a for a in args))
+
+
 def _trace(who: str, fn, *args, shapes=((),), unit=""):
     """``jax.eval_shape(fn, *args)``; a tracer (or any) error → ModelError naming ``who``; the
     output must have one of ``shapes`` (after dropping unit axes)."""
     try:
-        out = jax.eval_shape(fn, *args)
+        out = _eval_shape(fn, *args)
     except ModelError as exc:
         raise ModelError(f"{who}: {exc}") from None
     except Exception as exc:  # noqa: BLE001 - any failure to trace is the user's function
@@ -285,6 +298,6 @@ def _check_controllers(system: System, ctrl):
             return e.update(0.0, StateView(s.topo, bk, mk, 0.0, z, s.params), z[off : off + e.z0.size])
 
         try:
-            jax.eval_shape(trace, system, q0, v0, z0)
+            _eval_shape(trace, system, q0, v0, z0)
         except ModelError as exc:
             raise ModelError(f"{type(e).__name__} '{e.name}': {exc}") from None

@@ -24,7 +24,7 @@ from ..errors import Status
 from ..assembly.coordinates import Absolute
 from .galpha import StepOptions, StepState, lu_apply, rarely, step
 from .initial import kkt_accelerations, sample_controllers
-from ..compile_cache import cached_jit, jit
+from ..compile_cache import cached_jit, jit, traced_raw
 
 
 @dataclass(frozen=True)
@@ -347,7 +347,7 @@ def _reduced_start(dyn, q, v, qdd, lam):
 def _advance_absolute(dyn, integrator, dopts, st, h, out_times, n_valid, free_running=False, t_stop=None, seg=None):
     """The integration loop (:func:`advance`) with its recorded (q, v) in absolute coordinates:
     one executable (a separate conversion was one more compile and load per model)."""
-    out = advance(dyn, integrator, dopts, st, h, out_times, n_valid, free_running, t_stop, seg)
+    out = traced_raw(advance)(dyn, integrator, dopts, st, h, out_times, n_valid, free_running, t_stop, seg)
     if dyn.kind == "absolute":
         return out
     bufs = out[3]

@@ -179,11 +179,25 @@ def solve(integrator, dyn, y0, z, t0, t1, tol, ts=None, dt0=None, dt_max=None, f
     steps dt0. The states at ``ts`` (or at t1). Returns (ys, accepted steps, rejected steps, ok)."""
     import diffrax
 
+    from ..compile_cache import traced_raw
+
     saveat = diffrax.SaveAt(ts=ts) if ts is not None else diffrax.SaveAt(t1=True)
+    # The model reaches Diffrax as its arrays only, its structure (the System's topology) closed
+    # over by the vector field, and diffeqsolve is called as its function inside proleg's jit,
+    # not through its filter_jit wrapper: both keep what they are given in JAX's caches (one of
+    # them unbounded), which held every model simulated for the life of the process
+    # (compile_cache.traced_raw; tests/test_model_release.py).
+    leaves, treedef = jax.tree_util.tree_flatten(dyn)
+
+    def field(t, y, args):
+        return vector_field(t, y, (jax.tree_util.tree_unflatten(treedef, args[0]), *args[1:]))
+
+    traced = any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves(y0))
+    diffeqsolve = traced_raw(diffrax.diffeqsolve) if traced else diffrax.diffeqsolve
     with _no_callback_checks():
-        sol = diffrax.diffeqsolve(
-            diffrax.ODETerm(vector_field), integrator.solver(fixed), t0, t1, dt0, y0,
-            args=(dyn, z, integrator.stabilization), saveat=saveat, stepsize_controller=integrator.controller(tol, dt_max, fixed),
+        sol = diffeqsolve(
+            diffrax.ODETerm(field), integrator.solver(fixed), t0, t1, dt0, y0,
+            args=(leaves, z, integrator.stabilization), saveat=saveat, stepsize_controller=integrator.controller(tol, dt_max, fixed),
             max_steps=integrator.max_steps, throw=False, adjoint=diffrax.ForwardMode(),
         )
     return sol.ys, sol.stats["num_accepted_steps"], sol.stats["num_rejected_steps"], sol.result == diffrax.RESULTS.successful
