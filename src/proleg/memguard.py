@@ -1,12 +1,17 @@
 """A process that compiles many different models watches its own memory maps and resident memory.
 
 Every new compiled model (a new geometry of a builder study, a loop over link lengths) adds XLA
-executables that JAX's and proleg's jit caches keep alive. Measured on the HyQ leg
-(8 bushings, ``bench/memory_maps.py``, 2-core Intel VM, jaxlib 0.10.2): each new
-``simulate(assemble(hyq_leg(cylinder_length=...)))`` compiles 4 functions and adds ~750
-memory maps and ~100 MB of resident memory. The maps plateau near 12,800 after ~17 models
-(the kernel stops a process at ``vm.max_map_count``, 65,530 by default, with SIGSEGV), the
-resident memory does not: 300 models would hold ~30 GB. Clearing the caches
+executables: each new ``simulate(assemble(hyq_leg(cylinder_length=...)))`` (8 bushings,
+``bench/memory_maps.py``, 2-core Intel VM, jaxlib 0.10.2) compiles 4 functions and adds ~750
+memory maps and ~48 MiB of resident memory. proleg keeps at most ``CachedJit.MEMO`` (16)
+executables per function, and a model the user dropped is freed
+(:func:`proleg.compile_cache.traced_raw`; tests/test_model_release.py), so both plateau: maps
+near 12,850 after 17 models, resident memory near 1.4 GiB after ~29 (the kernel stops a process
+at ``vm.max_map_count``, 65,530 by default, with SIGSEGV). Before that fix JAX's trace caches
+kept every model, and the resident memory grew ~12 MiB per model without end.
+
+The thresholds below are the backstop for what proleg does not bound: larger models, many
+functions of the user's own under ``jax.jit``, arrays the user keeps. Clearing the caches
 (``jax.clear_caches()`` and :func:`proleg.compile_cache.clear`) returns the maps to ~1,100 at
 once, but not the resident memory: the freed executables stay in glibc's heap (10 models:
 1,485 MiB before the clear, 1,440 MiB after it). :func:`release` therefore also hands the free
@@ -21,9 +26,9 @@ hundreds of geometries runs with no user action. Thresholds:
 - resident memory: ``PROLEG_MAX_RSS_BYTES``, default a quarter of the machine's memory and at
   most 4 GiB (:data:`MAX_RSS_DEFAULT`; a worker of a pool of W workers: at most 1/(2W) of the
   memory, :func:`set_worker_share`, so the pool stays inside half the machine whatever W).
-  Choosing a value: ~40 new HyQ-sized models fit in 4 GiB; a lower value clears more often
-  and costs recompiling what is used again (seconds per model), a higher one lets a loop
-  over many geometries hold more memory before the clear.
+  Choosing a value: a loop over new HyQ legs levels off near 1.4 GiB; a lower value clears
+  more often and costs recompiling what is used again (seconds per model), a higher one lets a
+  process hold more before the clear.
 
 After a clear that leaves the process above a threshold (memory held by the user's own arrays),
 the in-process path cannot do more: the next clear waits until it has grown by half again, so
