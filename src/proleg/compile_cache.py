@@ -496,7 +496,7 @@ class CachedJit:
         return static, dyn
 
     def __call__(self, *args):
-        if _tracing(args):  # inside another trace: inlined (traced_raw's reason)
+        if tracing(args):  # inside another trace: inlined (traced_raw's reason)
             return traced_raw(self)(*args)
         entry = self._entry(args)
         if entry is None:
@@ -529,7 +529,7 @@ class CachedJit:
             return None
         static, dyn = self._split(args)
         leaves, treedef = jax.tree_util.tree_flatten(dyn)
-        if any(isinstance(x, jax.core.Tracer) for x in leaves) or any(isinstance(s, jax.core.Tracer) for s in jax.tree_util.tree_leaves(static)):
+        if tracing((leaves, static)):
             return None
         try:
             avals = tuple(_aval(x) for x in leaves)
@@ -606,8 +606,9 @@ class CachedJit:
             return None
 
 
-def _tracing(args) -> bool:
-    return any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves(args))
+def tracing(tree) -> bool:
+    """Whether any leaf of ``tree`` is a JAX tracer (the call is inside a jit, vmap or grad)."""
+    return any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves(tree))
 
 
 def traced_raw(fn):
@@ -617,7 +618,7 @@ def traced_raw(fn):
     A nested jit of a long-lived function keeps its arguments: JAX's trace caches are keyed
     weakly on the function but hold the argument structure (a System's topology, with its
     model) and the traced jaxpr strongly, and ``trace_to_jaxpr``'s cache has no size limit. A
-    process that simulates one new model after another then grew about 10 MiB per model for as
+    process that simulates one new model after another then grew 10-12 MiB per model for as
     long as it ran, although proleg keeps only :attr:`CachedJit.MEMO` executables per function
     (bench/memory_maps.py; issue 34). Called inline, the function leaves nothing behind once
     the outer trace's own entry is dropped; the compiled program is the same, as XLA inlines

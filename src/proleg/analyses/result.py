@@ -12,7 +12,7 @@ import numpy as np
 
 from ..assembly.constraints import joint_angle, joint_translation
 from ..assembly.system import StateView, System, constraint_jacobian, constraints, kinematic_energy_terms, kinematics
-from ..compile_cache import cached_jit, jit
+from ..compile_cache import cached_jit, jit, tracing
 from ..errors import ModelError, Status
 from ..spatial.rotation import L_of_p, euler_zyx_deg
 from ..solvers.initial import kkt_accelerations
@@ -141,7 +141,7 @@ class Result:
         fn = self._compiled_post
         if hasattr(fn, "result"):
             fn = fn.result()
-        if any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves(args)):
+        if tracing(args):
             return post_batch(*args)
         out = None
         if fn is not None:

@@ -24,7 +24,7 @@ from ..errors import Status
 from ..assembly.coordinates import Absolute
 from .galpha import StepOptions, StepState, lu_apply, rarely, step
 from .initial import kkt_accelerations, sample_controllers
-from ..compile_cache import cached_jit, jit, traced_raw
+from ..compile_cache import cached_jit, jit, traced_raw, tracing
 
 
 @dataclass(frozen=True)
@@ -397,7 +397,7 @@ def run_alpha(ig, system, request):
     chunk, free_running = request.chunk, request.free_running
     q0, v0 = request.q0, request.v0
     z0 = initial_z(system)
-    params_traced = any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves((system.params, q0, v0)))
+    params_traced = tracing((system.params, q0, v0))
     trail = contextlib.ExitStack()
     if not params_traced:  # the executables this run loads, for a later process to start loading early
         trail.enter_context(compile_cache.trail(system, request.coordinates, integrator, dopts, len(times), chunk,
@@ -405,7 +405,7 @@ def run_alpha(ig, system, request):
     with trail:
         q, v, qdd, lam, z0, (pw, g0) = _consistent_state(system, q0, v0, t0, z0)
         q_ic, v_ic = q, v
-        traced = any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves((system.params, q)))
+        traced = tracing((system.params, q))
         if not traced and request.on_start is not None:
             request.on_start(q, v, z0)
         dyn = coordinate_set(system, q, request.coordinates)

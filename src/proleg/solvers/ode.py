@@ -179,7 +179,7 @@ def solve(integrator, dyn, y0, z, t0, t1, tol, ts=None, dt0=None, dt_max=None, f
     steps dt0. The states at ``ts`` (or at t1). Returns (ys, accepted steps, rejected steps, ok)."""
     import diffrax
 
-    from ..compile_cache import traced_raw
+    from ..compile_cache import traced_raw, tracing
 
     saveat = diffrax.SaveAt(ts=ts) if ts is not None else diffrax.SaveAt(t1=True)
     # The model reaches Diffrax as its arrays only, its structure (the System's topology) closed
@@ -192,8 +192,7 @@ def solve(integrator, dyn, y0, z, t0, t1, tol, ts=None, dt0=None, dt_max=None, f
     def field(t, y, args):
         return vector_field(t, y, (jax.tree_util.tree_unflatten(treedef, args[0]), *args[1:]))
 
-    traced = any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves(y0))
-    diffeqsolve = traced_raw(diffrax.diffeqsolve) if traced else diffrax.diffeqsolve
+    diffeqsolve = traced_raw(diffrax.diffeqsolve) if tracing(y0) else diffrax.diffeqsolve
     with _no_callback_checks():
         sol = diffeqsolve(
             diffrax.ODETerm(field), integrator.solver(fixed), t0, t1, dt0, y0,
