@@ -24,7 +24,7 @@ from ..errors import Status
 from ..assembly.coordinates import Absolute
 from .galpha import StepOptions, StepState, lu_apply, rarely, step
 from .initial import kkt_accelerations, sample_controllers
-from ..compile_cache import cached_jit, jit, traced_raw, tracing
+from ..compile_cache import cached_jit, jit, tracing
 
 
 @dataclass(frozen=True)
@@ -160,9 +160,11 @@ def _normalize_parameters(q, v, nb):
     return jnp.concatenate([qb, q[7 * nb :]]), jnp.concatenate([vb, v[7 * nb :]])
 
 
-@partial(jax.jit, static_argnums=(1, 2, 7))
 def advance(dyn, integrator, dopts: DriverOptions, st: StepState, h, out_times, n_valid, free_running=False, t_stop=None, seg=None):
     """Integrate from ``st`` through ``out_times[:n_valid]``; record q, v, w, z at each.
+    Traced inside :data:`advance_absolute`'s compile, not a jit of its own: a nested jit of a
+    module function would keep every model's topology in JAX's trace cache
+    (:func:`proleg.compile_cache.traced_raw`).
 
     ``dyn``: the coordinate set the state is in (assembly/coordinates.py). ``t_stop``: the end
     of the run (steps never go past it; default: the last output time). ``seg``: the last
@@ -347,7 +349,7 @@ def _reduced_start(dyn, q, v, qdd, lam):
 def _advance_absolute(dyn, integrator, dopts, st, h, out_times, n_valid, free_running=False, t_stop=None, seg=None):
     """The integration loop (:func:`advance`) with its recorded (q, v) in absolute coordinates:
     one executable (a separate conversion was one more compile and load per model)."""
-    out = traced_raw(advance)(dyn, integrator, dopts, st, h, out_times, n_valid, free_running, t_stop, seg)
+    out = advance(dyn, integrator, dopts, st, h, out_times, n_valid, free_running, t_stop, seg)
     if dyn.kind == "absolute":
         return out
     bufs = out[3]
