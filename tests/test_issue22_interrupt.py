@@ -123,6 +123,88 @@ def test_sigint_keeps_what_was_computed(tmp_path):
     assert np.ptp(energy) < 1e-5 * 9.81 * 0.5  # of the swing's energy scale m g L (no damping)
 
 
+@pytest.fixture
+def python_sigint():
+    """Python's own SIGINT handler for the test (a pytest-xdist worker may run with SIGINT ignored)."""
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, before)
+
+
+def _ctrl_c_inside_a_gc_callback():
+    """SIGINT delivered while a garbage-collector callback runs, as JAX's ``_xla_gc_callback`` did
+    when CI's child lost its Ctrl-C: the handler runs inside the callback."""
+    import gc
+
+    def callback(phase, info):
+        if phase == "start":
+            signal.raise_signal(signal.SIGINT)
+
+    gc.callbacks.append(callback)
+    try:
+        gc.collect()
+    finally:
+        gc.callbacks.remove(callback)
+
+
+def test_a_ctrl_c_inside_a_gc_callback_is_lost_by_python_and_kept_by_deferred(python_sigint):
+    """The cause of the lost Ctrl-C, then its fix: with Python's handler the KeyboardInterrupt
+    raised inside the callback is dropped ("Exception ignored in"); inside ``sigint.deferred`` it
+    is recorded and raised by ``check`` at the loop's next stopping point, once."""
+    from proleg import sigint
+
+    seen = []
+    hook, sys.unraisablehook = sys.unraisablehook, lambda u: seen.append(u.exc_type)
+    try:
+        _ctrl_c_inside_a_gc_callback()  # no KeyboardInterrupt comes out here
+    finally:
+        sys.unraisablehook = hook
+    assert seen == [KeyboardInterrupt]
+    with sigint.deferred() as stop:
+        _ctrl_c_inside_a_gc_callback()
+        assert stop.requested
+        with pytest.raises(KeyboardInterrupt):
+            stop.check()
+        stop.check()  # consumed: once
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # restored
+
+
+def test_deferred_ctrl_c_twice_nested_pending_and_foreign_handlers(python_sigint):
+    """A second Ctrl-C raises at once; a nested use shares the outer record; one still pending at
+    the outermost exit is raised there; a program's own handler, or a thread, is left alone."""
+    import threading
+
+    from proleg import sigint
+
+    with sigint.deferred() as stop:
+        signal.raise_signal(signal.SIGINT)
+        with pytest.raises(KeyboardInterrupt):
+            signal.raise_signal(signal.SIGINT)
+        assert not stop.requested
+    with pytest.raises(KeyboardInterrupt):
+        with sigint.deferred():
+            with sigint.deferred() as inner:
+                signal.raise_signal(signal.SIGINT)
+                assert inner.requested
+            assert signal.getsignal(signal.SIGINT) is not signal.default_int_handler  # outer still holds it
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    calls = []
+    signal.signal(signal.SIGINT, lambda *a: calls.append(a[0]))
+    with sigint.deferred() as stop:
+        signal.raise_signal(signal.SIGINT)
+        assert calls == [signal.SIGINT] and not stop.requested
+    out = []
+
+    def in_a_thread():
+        with sigint.deferred() as stop:
+            out.append(stop.active)
+
+    th = threading.Thread(target=in_a_thread)
+    th.start()
+    th.join()
+    assert out == [False]
+
+
 @pytest.mark.slow
 def test_sweep_interrupt_keeps_finished_batches(monkeypatch):
     """Ctrl-C during the second of three one-variant batches: Interrupted carries a SweepResult

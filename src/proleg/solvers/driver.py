@@ -386,7 +386,7 @@ def run_alpha(ig, system, request):
 
     import numpy as np
 
-    from .. import compile_cache
+    from .. import compile_cache, sigint
     from ..assembly.coordinates import coordinate_set
     from .base import Solution
     from .initial import _consistent_state, initial_z
@@ -449,35 +449,39 @@ def run_alpha(ig, system, request):
         bar = request.progress if not traced else None
         if bar is not None:
             bar.start(nchunks, t0, t_end)
+        ctrl_c = contextlib.nullcontext(sigint.Pending(False)) if traced else sigint.deferred()
         try:
-            for c in range(nchunks):
-                tc = out_t[c * K : (c + 1) * K]
-                n_valid = len(tc)
-                tpad = np.concatenate([tc, np.full(K - n_valid, tc[-1])])
-                st, h, k, bufs, (ns, nr, nn, nj), stat, ft, wr, seg = advance_absolute(
-                    dyn, integrator, dopts, st, h, tpad, n_valid, free_running, t_stop, seg
-                )
-                if traced:
-                    rec_t.append(tc)
+            with ctrl_c as stop:  # Ctrl-C acted on between chunks, never lost (sigint.py says why)
+                for c in range(nchunks):
+                    tc = out_t[c * K : (c + 1) * K]
+                    n_valid = len(tc)
+                    tpad = np.concatenate([tc, np.full(K - n_valid, tc[-1])])
+                    st, h, k, bufs, (ns, nr, nn, nj), stat, ft, wr, seg = advance_absolute(
+                        dyn, integrator, dopts, st, h, tpad, n_valid, free_running, t_stop, seg
+                    )
+                    if traced:
+                        rec_t.append(tc)
+                        for key, b in zip(("q", "v", "w", "z"), bufs):
+                            rec[key].append(b[:n_valid])
+                        # Kept as (traced) arrays: the first failure and the counters (sweep.py reads them).
+                        first = tr_status == 0
+                        tr_status, tr_ft = jnp.where(first, stat, tr_status), jnp.where(first, ft, tr_ft)
+                        tr_stats = tr_stats + jnp.stack([ns, nr, nn, nj])
+                        continue
+                    k = int(k)
+                    stats += np.array([int(ns), int(nr), int(nn), int(nj)])
+                    rec_t.append(tc[:k])
                     for key, b in zip(("q", "v", "w", "z"), bufs):
-                        rec[key].append(b[:n_valid])
-                    # Kept as (traced) arrays: the first failure and the counters (sweep.py reads them).
-                    first = tr_status == 0
-                    tr_status, tr_ft = jnp.where(first, stat, tr_status), jnp.where(first, ft, tr_ft)
-                    tr_stats = tr_stats + jnp.stack([ns, nr, nn, nj])
-                    continue
-                k = int(k)
-                stats += np.array([int(ns), int(nr), int(nn), int(nj)])
-                rec_t.append(tc[:k])
-                for key, b in zip(("q", "v", "w", "z"), bufs):
-                    rec[key].append(np.asarray(b)[:k])
-                if bar is not None:
-                    bar.update(float(st.t))
-                if int(stat) != 0:
-                    status, fail_t, worst = Status(int(stat)), float(ft), dyn.absolute_row(int(wr))
-                    break
-                if request.on_chunk is not None:
-                    request.on_chunk(solution(status, "running"))
+                        rec[key].append(np.asarray(b)[:k])
+                    if bar is not None:
+                        bar.update(float(st.t))
+                    if int(stat) != 0:
+                        status, fail_t, worst = Status(int(stat)), float(ft), dyn.absolute_row(int(wr))
+                        break
+                    if request.on_chunk is not None:
+                        request.on_chunk(solution(status, "running"))
+                    stop.check()
+                stop.check()  # a Ctrl-C during the last chunk: the whole run, reported as interrupted
         except KeyboardInterrupt:
             if traced:
                 raise
