@@ -28,6 +28,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..assembly.system import System
+from .. import sigint
 from ..errors import ModelError, Status
 from .checks import check_simulate, check_sweep_values
 from .result import Result
@@ -249,23 +250,29 @@ def sweep(
     t0 = time.perf_counter()
     done = {}  # batch index -> outputs, kept when Ctrl-C stops the sweep
     try:
-        if concurrent:
-            # XLA releases the GIL while a batch runs, and with proleg's scheduler setting each
-            # batch keeps to one core: concurrent batches use the others (bench/vmap_batch.py).
-            # Their Newton matrices are factored lane by lane (``lu_per_lane``), and one pool
-            # thread stays free for any other batched LAPACK call (max_concurrent_batches).
-            from concurrent.futures import as_completed
+        with sigint.deferred() as stop:  # Ctrl-C acted on between batches, never lost (sigint.py)
+            if concurrent:
+                # XLA releases the GIL while a batch runs, and with proleg's scheduler setting each
+                # batch keeps to one core: concurrent batches use the others (bench/vmap_batch.py).
+                # Their Newton matrices are factored lane by lane (``lu_per_lane``), and one pool
+                # thread stays free for any other batched LAPACK call (max_concurrent_batches).
+                from concurrent.futures import FIRST_COMPLETED, wait
 
-            pool = ThreadPoolExecutor(threads)
-            try:
-                futures = {pool.submit(run, b): b for b in range(n_batches)}
-                for f in as_completed(futures):
-                    done[futures[f]] = f.result()
-            finally:
-                pool.shutdown(wait=False, cancel_futures=True)
-        else:
-            for b in range(n_batches):
-                done[b] = run(b)
+                pool = ThreadPoolExecutor(threads)
+                try:
+                    futures = {pool.submit(run, b): b for b in range(n_batches)}
+                    running = set(futures)
+                    while running:  # polled: a recorded Ctrl-C is seen within 0.2 s
+                        finished, running = wait(running, timeout=0.2, return_when=FIRST_COMPLETED)
+                        for f in finished:
+                            done[futures[f]] = f.result()
+                        stop.check()
+                finally:
+                    pool.shutdown(wait=False, cancel_futures=True)
+            else:
+                for b in range(n_batches):
+                    done[b] = run(b)
+                    stop.check()
     except KeyboardInterrupt:
         batches = sorted(done)
         idx = np.concatenate([np.arange(b * bs, min((b + 1) * bs, n)) for b in batches]) if batches else np.arange(0)
