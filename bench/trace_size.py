@@ -6,16 +6,20 @@ that does not depend on the machine's load: the leaf equations of the jaxprs (eq
 nested jaxprs — loops, conds, custom rules — counted inside, not the nesting equation) of the
 four functions a first ``simulate`` + ``to_frame`` compiles:
 
-``advance``         solvers/driver.py, the integration loop (steps, Newton, dense output)
+``advance``         solvers/driver.py, the integration loop (steps, Newton, dense output,
+                    absolute-coordinate outputs: ``advance_absolute``)
 ``_ic``             solvers/initial.py, the initial-conditions analysis
 ``_post_one``       analyses/result.py, the outputs' post-processing (vmapped as post_batch;
                     traced here for one output)
-``_reduced_start``  analyses/simulate.py, the start in planar/joint coordinates (absolute: none)
+``_reduced_start``  solvers/driver.py, the start in planar/joint coordinates (absolute: none)
 
 on three models: the README double pendulum (planar coordinates), the 7-link chain
 (common.build_chain(7)) and the HyQ leg drop (hyq_leg(joints="rigid", actuators="drop") through
-hyq_tests.drop_test; ``hyq_b8``: the same with eight bushings, make run's largest model). The arguments are captured from a real ``simulate`` call, which is stopped
-before the integration loop compiles (only ``_ic`` and ``_reduced_start`` run).
+hyq_tests.drop_test; ``hyq_b8``: the same with eight bushings, make run's largest model). The
+arguments are captured from a real ``simulate`` call, which is stopped before the integration
+loop compiles (only ``_ic`` and ``_reduced_start`` run). The pendulum and the chain run with
+``GeneralizedAlpha()``: these functions are the α-methods' (the default ``integrator="auto"``
+may give them to Diffrax, whose loop is not counted here).
 
 ``--compile`` also times each function's trace, lowering and XLA compile (cold, proleg's XLA
 options of that function; load-sensitive: give ``uptime`` with the numbers and repeat).
@@ -50,14 +54,14 @@ def pendulum():
     import proleg as pl
 
     system = pl.assemble(readme_model())
-    return lambda: pl.simulate(system, t_end=2.0, dt_output=1e-3)
+    return lambda: pl.simulate(system, t_end=2.0, dt_output=1e-3, integrator=pl.GeneralizedAlpha())
 
 
 def chain7():
     import proleg as pl
 
     system = pl.assemble(build_chain(7))
-    return lambda: pl.simulate(system, t_end=1.0, dt_output=0.01, progress=False)
+    return lambda: pl.simulate(system, t_end=1.0, dt_output=0.01, progress=False, integrator=pl.GeneralizedAlpha())
 
 
 def hyq():
@@ -89,7 +93,7 @@ def capture(run):
     from proleg.solvers import driver
 
     got = {}
-    orig = {"adv": S.advance, "ic": I._ic, "rs": S._reduced_start, "post": S._compile_post}
+    orig = {"adv": driver.advance_absolute, "ic": I._ic, "rs": driver._reduced_start, "post": S._compile_post}
 
     def spy_ic(*a):
         out = orig["ic"](*a)
@@ -101,16 +105,20 @@ def capture(run):
         return orig["rs"](*a)
 
     def spy_adv(*a):
-        got["advance"] = (driver.advance, (1, 2, 7), a)
+        got["advance"] = (orig["adv"].fn, (1, 2, 7), a)  # the loop with its absolute-coordinate outputs
         raise _Stop
 
-    S.advance, I._ic, S._reduced_start, S._compile_post = spy_adv, spy_ic, spy_rs, lambda *a: None
+    def restore():
+        driver.advance_absolute, I._ic, driver._reduced_start = orig["adv"], orig["ic"], orig["rs"]
+        S._compile_post = orig["post"]
+
+    driver.advance_absolute, I._ic, driver._reduced_start, S._compile_post = spy_adv, spy_ic, spy_rs, lambda *a: None
     try:
         run()
     except _Stop:
         pass
     finally:
-        S.advance, I._ic, S._reduced_start, S._compile_post = orig["adv"], orig["ic"], orig["rs"], orig["post"]
+        restore()
     fn, sa, a, out = got.pop("_ic")
     got["_ic"] = (fn, sa, a)
     q, v, z, t0 = out[0], out[1], out[4], a[3]
