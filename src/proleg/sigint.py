@@ -11,7 +11,7 @@ handler can also raise half-way through writing a chunk to a store.
 Inside :func:`deferred`, SIGINT only records itself; the loop calls :meth:`Pending.check` where
 it can stop (after a chunk is recorded and written), which raises ``KeyboardInterrupt`` there.
 A second Ctrl-C before that check raises at once, as Python's handler would (a user who presses
-it twice wants out now). Outside the main thread, or where the program installed its own SIGINT
+it twice wants out now), and stays recorded: if that exception is dropped too, ``check`` raises. Outside the main thread, or where the program installed its own SIGINT
 handler, nothing is changed and ``check`` never raises: the program's handler decides.
 """
 
@@ -26,8 +26,8 @@ _state = {"depth": 0, "hits": 0, "previous": None}
 
 def _handler(signum, frame):
     _state["hits"] += 1
-    if _state["hits"] > 1:  # the second Ctrl-C: at once
-        _state["hits"] = 0
+    if _state["hits"] > 1:  # the second Ctrl-C: at once (and still recorded, in case this one is lost too)
+        _state["hits"] = 1
         raise KeyboardInterrupt
 
 
