@@ -11,8 +11,8 @@ handler can also raise half-way through writing a chunk to a store.
 Inside :func:`deferred`, SIGINT only records itself; the loop calls :meth:`Pending.check` where
 it can stop (after a chunk is recorded and written), which raises ``KeyboardInterrupt`` there.
 A second Ctrl-C before that check raises at once, as Python's handler would (a user who presses
-it twice wants out now), and stays recorded: if that exception is dropped too, ``check`` raises. Outside the main thread, or where the program installed its own SIGINT
-handler, nothing is changed and ``check`` never raises: the program's handler decides.
+it twice wants out now), and stays recorded: if that exception is dropped too, ``check`` raises.
+Outside the main thread, or where the program installed its own SIGINT handler, nothing is changed and ``check`` never raises: the program's handler decides.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import contextlib
 import signal
 import threading
 
-_state = {"depth": 0, "hits": 0, "previous": None}
+_state = {"hits": 0}  # Ctrl-Cs recorded and not yet acted on (one record: nested uses share it)
 
 
 def _handler(signum, frame):
@@ -59,21 +59,17 @@ def deferred():
         return
     current = signal.getsignal(signal.SIGINT)
     if current is _handler:  # nested: the outer use restores and delivers
-        _state["depth"] += 1
-        try:
-            yield Pending(True)
-        finally:
-            _state["depth"] -= 1
+        yield Pending(True)
         return
     if current is not signal.default_int_handler:  # the program's own handler decides
         yield Pending(False)
         return
-    _state.update(depth=1, hits=0, previous=current)
+    _state["hits"] = 0
     signal.signal(signal.SIGINT, _handler)
     try:
         yield Pending(True)
     finally:
-        signal.signal(signal.SIGINT, _state["previous"])
-        pending, _state["hits"], _state["depth"] = _state["hits"] > 0, 0, 0
+        signal.signal(signal.SIGINT, current)
+        pending, _state["hits"] = _state["hits"] > 0, 0
     if pending:
         raise KeyboardInterrupt
