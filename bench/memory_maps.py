@@ -14,10 +14,15 @@ Modes (``--modes``):
 ``unguarded``   ``loop`` with proleg.memguard's thresholds raised out of reach: what the process
                 would hold without it (use a small N: ~100 MB per model)
 
-``--trace FILE`` appends one JSON line per model (mode, index, wall, maps, RSS, clears; for
+``--trace [FILE]`` appends one JSON line per model (mode, index, wall, maps, RSS, clears; for
 ``processes`` the largest worker's maps and RSS when its batch came back), flushed as it goes, so
-a run stopped early still shows whether maps and RSS plateau. ``--max-wall S`` ends a mode after
-S seconds and reports the models it reached (a study stops after the batch in flight).
+a run stopped early still shows whether maps and RSS plateau. Traces are raw data, written only
+when asked and by default outside the repository (``--trace`` alone: a new file under
+``$TMPDIR/proleg-bench/``; its path is logged). What the docs read is a summary of them:
+``--summarize FILE`` (per mode and clear cycle, every 5th model) and ``--compare BEFORE AFTER``
+(resident memory at given models, two traces of the same modes side by side, e.g. before and
+after a fix), both printed as markdown. ``--max-wall S`` ends a mode after S seconds and reports
+the models it reached (a study stops after the batch in flight).
 
 Columns: ``peak maps`` (sampled every 0.2 s by a thread, and after every model), ``limit / 2``
 (half the kernel's vm.max_map_count, the target), ``peak RSS``, ``maps/model`` and
@@ -240,6 +245,59 @@ def summarize(path, every=5):
     return "\n".join(out)
 
 
+def rss_growth(recs, first=20, last=160):
+    """Least-squares growth of RSS per model [MiB/model] over models ``first``..``last`` (after the
+    maps have levelled off), per worker process where the trace names one (processes mode)."""
+    import numpy as np
+
+    out = {}
+    for key in dict.fromkeys(r.get("pid") for r in recs):
+        rs = [r for r in recs if r.get("pid") == key]
+        sel = [r for k, r in enumerate(rs, 1) if first <= k <= last]
+        if len(sel) >= 3:
+            x = np.arange(len(sel), dtype=float)
+            out[key] = float(np.polyfit(x, [r["rss_mib"] for r in sel], 1)[0])
+    return out
+
+
+def compare(before, after, at=(16, 28, 40)):
+    """``before``, ``after``: a trace file, or several comma-separated. Markdown: resident memory at models ``at`` for every mode both traces hold, before against
+    after, and the growth between the last two of ``at``; then, per mode of ``before``, the RSS
+    growth per model once the maps have levelled off (models 20-160; per worker for processes)."""
+    import json
+
+    def load(paths):  # one path, or several (comma-separated) read as one trace
+        return [json.loads(line) for path in str(paths).split(",") for line in open(path) if line.strip()]
+
+    b, a = load(before), load(after)
+    at = tuple(at)
+    out = [f"| mode | RSS at model {' / '.join(map(str, at))}, before [MiB] | after [MiB] | growth from model {at[-2]} to {at[-1]}, before → after [MiB] |",
+           "|---|---:|---:|---:|"]
+    for mode in dict.fromkeys(r["mode"] for r in b):
+        rb = {r["i"]: r["rss_mib"] for r in b if r["mode"] == mode}
+        ra = {r["i"]: r["rss_mib"] for r in a if r["mode"] == mode}
+        if not ra or any(i not in rb or i not in ra for i in at):
+            continue
+        out.append(f"| {mode} | {' / '.join(f'{rb[i]:,.0f}' for i in at)} | {' / '.join(f'{ra[i]:,.0f}' for i in at)} "
+                   f"| {rb[at[-1]] - rb[at[-2]]:,.0f} → {ra[at[-1]] - ra[at[-2]]:,.0f} |")
+    out += ["", "| mode (before) | models | RSS growth, models 20-160 [MiB/model] |", "|---|---:|---:|"]
+    for mode in dict.fromkeys(r["mode"] for r in b):
+        rs = [r for r in b if r["mode"] == mode]
+        g = rss_growth(rs)
+        per = ", ".join(f"{v:.1f}" for v in g.values())
+        out.append(f"| {mode}{' (per worker)' if len(g) > 1 else ''} | {len(rs)} | {per} |")
+    return "\n".join(out) + "\n"
+
+
+def default_trace_path(modes):
+    """A new trace file outside the repository: $TMPDIR/proleg-bench/memory_maps_<modes>_<time>.jsonl."""
+    import tempfile
+
+    d = os.path.join(tempfile.gettempdir(), "proleg-bench")
+    os.makedirs(d, exist_ok=True)
+    return os.path.join(d, f"memory_maps_{modes.replace(',', '-')}_{time.strftime('%Y%m%d-%H%M%S')}_trace.jsonl")
+
+
 def max_map_count_half():
     with open("/proc/sys/vm/max_map_count") as f:
         return int(f.read()) // 2
@@ -249,14 +307,26 @@ def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--n", type=int, default=300, help="models (distinct cylinder lengths) per mode")
     p.add_argument("--modes", default="loop,builder,processes", help="comma-separated: loop, builder, processes, unguarded")
-    p.add_argument("--trace", default=None, help="append one JSON line per model to this file")
+    p.add_argument("--trace", nargs="?", const="", default=None, metavar="FILE",
+                   help="append one JSON line per model to FILE (alone: a new file under $TMPDIR/proleg-bench/; raw data, not for the repository)")
     p.add_argument("--max-wall", type=float, default=None, help="seconds per mode; a mode stops there (models reached are reported)")
     p.add_argument("--summarize", default=None, help="print the per-mode summary of a --trace file and exit")
+    p.add_argument("--compare", nargs=2, default=None, metavar=("BEFORE", "AFTER"),
+                   help="print RSS at --at models for two traces of the same modes (each a --trace file, or several comma-separated), "
+                   "and the growth per model of BEFORE's modes, and exit")
+    p.add_argument("--at", default="16,28,40", help="--compare: the models to show (comma-separated)")
     add_output_args(p, "memory_maps")
     args = p.parse_args()
     if args.summarize:
         print(summarize(args.summarize))
         return
+    if args.compare:
+        print(compare(*args.compare, at=[int(k) for k in args.at.split(",")]))
+        return
+    if args.trace == "":
+        args.trace = default_trace_path(args.modes)
+    if args.trace:
+        log(f"trace: {args.trace}")
     import jax
 
     jax.config.update("jax_enable_x64", True)
