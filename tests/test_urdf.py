@@ -95,9 +95,14 @@ def test_limits_damping_feet_and_notes():
 
 
 def test_floating_base_needs_mass():
-    # 'base' has no <inertial>: welded it is fine, floating it would be a massless free part
+    # 'base' has no <inertial>: welded it is fine, floating it would be a massless free part.
+    # strict=True keeps the error; the default gives it 1/1000 of the lightest part's mass
+    # (shank + tip: 0.9 kg) and says so (proleg.io.urdf_inertia).
     with pytest.raises(ModelError, match="'base'.*zero mass"):
-        load_urdf(DATA, floating_base=True)
+        load_urdf(DATA, floating_base=True, strict=True)
+    with pytest.warns(UrdfWarning, match=r"link 'base' has no mass but carries links: given 0\.0009 kg"):
+        m = load_urdf(DATA, floating_base=True)
+    assert m.part("base").mass == pytest.approx(1e-3 * 0.9)
 
 
 BAD_JOINT = """<robot name="r"><link name="a"><inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>
@@ -123,8 +128,9 @@ def _write(tmp_path, text, name="r.urdf"):
     ],
 )
 def test_bad_files_name_link_joint_and_file(tmp_path, text, match):
+    # strict=True: the mass and inertia checks raise instead of repairing (test_urdf_defaults.py)
     with pytest.raises(ModelError, match=match):
-        load_urdf(_write(tmp_path, text))
+        load_urdf(_write(tmp_path, text), strict=True)
 
 
 def test_missing_file_and_missing_mesh(tmp_path):
@@ -136,7 +142,7 @@ def test_missing_file_and_missing_mesh(tmp_path):
     assert m.urdf.visuals == [] and any("b.stl" in n for n in m.urdf.notes)
 
 
-def test_cli_info_on_urdf():
+def test_cli_info_on_urdf(tmp_path):
     import json
 
     from typer.testing import CliRunner
@@ -148,5 +154,9 @@ def test_cli_info_on_urdf():
     d = json.loads(out.stdout)
     assert d["parts"] == ["thigh", "shank"] and d["dof_rank"] == 2 and d["mass_kg"] == pytest.approx(2.4)
     assert any("welded" in n for n in d["urdf: dropped or approximated"])
-    bad = CliRunner().invoke(app, ["info", str(DATA)])  # floating: 'base' has no mass
-    assert bad.exit_code == 2 and "zero mass" in " ".join(bad.output.split())
+    # floating: 'base' has no mass; it loads with a small mass and the note says so
+    out = CliRunner().invoke(app, ["info", str(DATA), "--json"])
+    assert out.exit_code == 0, out.output
+    assert any("'base' has no mass" in n for n in json.loads(out.stdout)["urdf: dropped or approximated"])
+    bad = CliRunner().invoke(app, ["info", str(_write(tmp_path, DATA.read_text().replace('name="two_link"', "", 1)))])
+    assert bad.exit_code == 2 and "<robot> has no 'name' attribute" in " ".join(bad.output.split())

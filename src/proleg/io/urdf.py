@@ -23,7 +23,13 @@ Mapping (Adams merges rigid parts the same way, seed 001):
   ``−F tanh(ω/ω_f)`` (a :class:`JointActuator`, approximated: reported);
 * the root link is a free part (``floating_base=True``) or welded to ground;
 * foot links (``feet=``; on a floating base by default every link with a ``<collision><sphere>``,
-  on a welded base none) get a :class:`SphereContact` with the ground plane at the sphere centre;
+  or, where no link has one, the lowest collision meshes of the leaf parts; on a welded base
+  none) get a :class:`SphereContact` with the ground plane at the sphere centre; a foot whose
+  collision is a mesh gets a sphere fitted to the mesh's lowest region (:mod:`.urdf_feet`);
+  feet have friction by default (μ = 0.8, :data:`FOOT_CONTACT`; ``load_urdf``'s docstring);
+* messy mass properties are repaired as MuJoCo's compiler can (:mod:`.urdf_inertia`: massless
+  subtrees welded, massless links that carry links given a small mass, non-physical inertias
+  bounded and balanced), each repair noted; ``strict=True`` raises instead;
 * a floating base is placed so that its lowest foot sphere touches the ground plane z = 0 at
   the initial joint positions (``base_height=`` or ``base_position=`` to place it yourself): a
   URDF's root frame is usually the trunk centre, and at (0, 0, 0) the feet would start deep in
@@ -44,6 +50,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..model._validate import inertia_problem as _check_inertia
+from .urdf_inertia import BOUND_MASS_FRACTION, massless_links, repair_inertia, sphere_moment
 
 
 class UrdfWarning(UserWarning):
@@ -85,6 +92,7 @@ class UrdfInfo:
     feet: list  # link names with a ground contact
     tree: list = field(default_factory=list)  # (link, parent link, joint, type, origin (4, 4), axis (3,)) in tree order; root first with parent None
     base_pose: np.ndarray = field(default_factory=lambda: np.eye(4))  # root link frame in ground at the modelled pose
+    initial_positions: dict = field(default_factory=dict)  # joint name → initial position [rad|m] (the modelled pose)
 
     def joint_names(self):
         return [j[0] for j in self.joints]
@@ -127,6 +135,22 @@ def _frame_z(axis):
 # parsing
 # ---------------------------------------------------------------------------------------------
 SUPPORTED = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
+# Foot contact defaults on top of SphereContact's (load_urdf's docstring says how they were chosen;
+# bench/urdf_friction.py measured them)
+FOOT_CONTACT = {"mu_static": 0.8, "mu_dynamic": 0.8, "v_stiction": 0.01, "v_friction": 0.05}
+# (element path from <robot>, attribute, how to fix) for the attributes URDF requires
+REQUIRED = (
+    (".", "name", 'Give the robot a name: <robot name="my_robot">.'),
+    ("link", "name", 'Give every link a unique name: <link name="...">.'),
+    ("joint", "name", 'Give every joint a unique name: <joint name="..." type="...">.'),
+    ("joint", "type", "Give the joint a type: revolute, continuous, prismatic, fixed, floating or planar."),
+    ("link/inertial/mass", "value", 'Give the mass in kg: <mass value="1.0"/>.'),
+    (".//geometry/box", "size", 'Give the box size in m: <box size="x y z"/>.'),
+    (".//geometry/cylinder", "radius", 'Give the cylinder radius and length in m: <cylinder radius="r" length="l"/>.'),
+    (".//geometry/cylinder", "length", 'Give the cylinder radius and length in m: <cylinder radius="r" length="l"/>.'),
+    (".//geometry/sphere", "radius", 'Give the sphere radius in m: <sphere radius="r"/>.'),
+    (".//geometry/mesh", "filename", 'Give the mesh file: <mesh filename="package://pkg/meshes/part.stl"/>.'),
+)
 
 
 def _parse(path: Path):
@@ -144,6 +168,14 @@ def _parse(path: Path):
         raise ModelError(f"URDF file {path}: not well-formed XML ({exc}). Fix the XML syntax.") from exc
     if root.tag != "robot":
         raise ModelError(f"URDF file {path}: the root element is <{root.tag}>, expected <robot>.")
+    for xpath, attr, fix in REQUIRED:
+        for e in root.iterfind(xpath):
+            if e.get(attr) is None:
+                owner = next((a for a in e.iterancestors() if a.tag in ("link", "joint")), None)
+                within = f" of {owner.tag} '{owner.get('name')}'" if owner is not None and owner is not e else ""
+                raise ModelError(
+                    f"URDF file {path}, line {e.sourceline}: <{e.tag}>{within} has no '{attr}' attribute, which URDF requires. {fix}"
+                )
     for j in root.findall("joint"):
         jt = j.get("type")
         if jt not in SUPPORTED:
@@ -215,6 +247,9 @@ def load_urdf(
     joint_friction: bool = True,
     friction_velocity: float = 0.01,
     initial_positions: dict | None = None,
+    initial_velocities: dict | None = None,
+    base_velocity=None,
+    strict: bool = False,
     base_position=None,
     base_height: float | None = None,
     base_orientation=None,
@@ -234,7 +269,17 @@ def load_urdf(
         on a test bench has no floor; ask for ``feet="spheres"`` to give it one). ``()`` for no
         contacts. A named link without a sphere gets ``foot_radius`` at its frame origin.
     contact : dict, keyword arguments of :class:`proleg.SphereContact` (stiffness, damping,
-        mu_static, ...) for every foot
+        mu_static, ...) for every foot, on top of :data:`FOOT_CONTACT`: **feet have friction by
+        default**, μ_static = μ_dynamic = 0.8 (rubber-soled feet on concrete or wood; a robot stands
+        on a 35° slope), with the stiction and transition velocities v_stiction = 0.01 m/s and
+        v_friction = 0.05 m/s. Choosing values: a stuck foot creeps at about
+        v_stiction · tan θ / μ on a slope of θ (2 mm/s at 10°), and below about 0.01 m/s the
+        stick–slip transition becomes a stiff tangential damper (μ F_n / v_stiction) that the
+        step-size control must resolve: bench/urdf_friction.py (results in
+        bench/results/urdf_friction.md) measured steps against the answer of a dropped leg and a
+        robot standing on a 10° slope; SphereContact's own defaults (1e-3, 1e-2 m/s) take
+        many times the steps for a change in the answer well below the contact's own modelling
+        error. Pass ``contact={"mu_static": 0, "mu_dynamic": 0}`` for frictionless feet.
     joint_stops : bool; revolute ``<limit>`` → :class:`RotationalBacklash` with
         ``stop_stiffness`` [N m/rad], ``stop_damping`` [N m s/rad] and a smoothing ``stop_width``
         [rad] (choosing values: the stop's penetration under a torque τ is τ/k; 1e4 N m/rad
@@ -242,6 +287,15 @@ def load_urdf(
     joint_damping, joint_friction : bool; ``<dynamics damping friction>`` as a viscous torque
         [N m s/rad] and a Coulomb torque smoothed over ``friction_velocity`` [rad/s]
     initial_positions : dict joint name → position [rad or m], URDF sign and zero (default 0)
+    initial_velocities : dict joint name → rate [rad/s or m/s], URDF sign (default 0)
+    base_velocity : (6,) [m/s ×3, rad/s ×3], optional; the floating base's initial twist (v, ω)
+        of the root-link frame origin, in root-link axes (Pinocchio's free-flyer convention). The
+        rates can also be set after loading: :func:`proleg.io.set_initial_velocity`
+    strict : bool, default False. False: messy mass properties are repaired as MuJoCo's compiler
+        can and each repair is noted and warned (massless subtrees welded at their initial
+        positions, massless links carrying links given a small mass, non-physical inertias
+        bounded and balanced: :mod:`proleg.io.urdf_inertia`), so a URDF that Pinocchio builds
+        loads. True: such links raise :class:`ModelError`.
     base_position : (3,) [m], root-link frame origin in ground. Default None: x = y = 0 and, on
         a floating base with contacts, the height at which the lowest foot sphere touches the
         ground plane z = 0 (zero gap) at ``initial_positions``; 0 without contacts or when welded
@@ -323,6 +377,24 @@ def load_urdf(
             X_W[j.child] = X_W[ln] @ O @ _joint_motion(j.type, _axis(j), q0.get(j.name, 0.0))
         stack.extend(j.child for j in reversed(children[ln]))
 
+    # groups of links welded by fixed joints (and, unless strict, massless subtrees welded at
+    # their initial positions: urdf_inertia); a group is named after its top link
+    link_mass = {ln: _link_inertial(links[ln])[0] for ln in order}
+    for ln, m in link_mass.items():
+        if m < 0:
+            raise ModelError(f"{where}: link '{ln}' has negative mass {m} kg. Give <mass value=...> ≥ 0.")
+    welded: set = set()
+    group = _groups(order, parent_joint, welded, root, floating_base)
+    bounded: list = []
+    if not strict:
+        welded, bounded = massless_links(order, group, parent_joint, link_mass, floating_base)
+        if welded:
+            group = _groups(order, parent_joint, welded, root, floating_base)
+            names = [parent_joint[ln].name for ln in order if ln in parent_joint and parent_joint[ln].name in welded]
+            notes.append(
+                f"massless links welded to their parents at the initial joint positions (they carry no mass; joints {names} dropped)"
+            )
+
     # feet → contacts
     if feet is None and not floating_base:
         feet_d = {}
@@ -332,6 +404,8 @@ def load_urdf(
             for c in links[ln].collisions or []:
                 if c.geometry is not None and c.geometry.sphere is not None:
                     feet_d[ln] = None
+        if feet is None and not feet_d:
+            feet_d = _mesh_feet(order, links, group, parent_joint, welded, X_W, path, package_dirs, notes)
     elif isinstance(feet, dict):
         feet_d = dict(feet)
     elif isinstance(feet, str):
@@ -342,12 +416,20 @@ def load_urdf(
     for ln, r in feet_d.items():
         if ln not in links:
             raise ModelError(f"load_urdf feet: no link named '{ln}' in {path}. Known links: {sorted(links)}")
-        center, radius = np.zeros(3), foot_radius
+        center, radius, found = np.zeros(3), foot_radius, False
         for c in links[ln].collisions or []:
             if c.geometry is not None and c.geometry.sphere is not None:
                 center = (np.eye(4) if c.origin is None else np.asarray(c.origin, float))[:3, 3]
-                radius = float(c.geometry.sphere.radius)
+                radius, found = float(c.geometry.sphere.radius), True
                 break
+        if not found and r is None:
+            fit = _mesh_sphere(links[ln], X_W[ln], path, package_dirs)
+            if fit is not None:
+                center, radius, flat = fit
+                notes.append(
+                    f"foot '{ln}': collision mesh → contact sphere r = {radius * 1e3:.1f} mm fitted to its lowest region"
+                    + (" (the foot is flat: one sphere under its centre is a rough model; give feet={link: radius} or add contacts)" if flat else "")
+                )
         if r is not None:
             radius = float(r)
         if not (np.isfinite(radius) and radius >= 0 and np.all(np.isfinite(center))):
@@ -365,19 +447,12 @@ def load_urdf(
             X_W[ln] = X_W[ln].copy()
             X_W[ln][2, 3] -= bottom
 
-    # groups of links welded by fixed joints; the group is named after its top link
-    group = {}
-    for ln in order:
-        j = parent_joint.get(ln)
-        group[ln] = group[j.parent] if (j is not None and j.type == "fixed") else ln
-    if not floating_base:
-        for ln in order:
-            if group[ln] == root:
-                group[ln] = "ground"
-
     # per-group mass properties in the top link's axes
     model = Model(name or robot.name or path.stem, gravity=gravity)
     tops = [g for g in dict.fromkeys(group[ln] for ln in order) if g != "ground"]
+    if bounded:
+        gm = {g: sum(link_mass[ln] for ln in order if group[ln] == g) for g in tops}
+        m_bound = BOUND_MASS_FRACTION * min(m for m in gm.values() if m > 0)
     body_X = {}  # group → world pose of the part frame (COM, top-link axes)
     for g in tops:
         members = [ln for ln in order if group[ln] == g]
@@ -385,26 +460,27 @@ def load_urdf(
         ms, cs, Js = [], [], []
         for ln in members:
             m, c, J = _link_inertial(links[ln])
-            if m < 0:
-                raise ModelError(f"{where}: link '{ln}' has negative mass {m} kg.")
             X = Xg_inv @ X_W[ln]
             ms.append(m)
             cs.append(X[:3, :3] @ c + X[:3, 3])
             Js.append(X[:3, :3] @ J @ X[:3, :3].T)
-            if m > 0 and (bad := _check_inertia(J)) is not None:
-                if len(members) == 1:
-                    raise ModelError(
-                        f"{where}: link '{ln}' inertia {bad}. Give a physical inertia tensor about the COM "
-                        "(every principal moment > 0, each at most the sum of the other two)."
-                    )
+            if m > 0 and len(members) > 1 and (bad := _check_inertia(J)) is not None:
                 notes.append(f"link '{ln}': inertia {bad}; merged into part '{g}' whose total inertia is used")
         M = float(sum(ms))
+        if M <= 0 and g in bounded:
+            ms, cs, Js = [m_bound], [np.zeros(3)], [sphere_moment(m_bound) * np.eye(3)]
+            M = m_bound
+            notes.append(
+                f"link '{g}' has no mass but carries links: given {m_bound:.3g} kg (1/{1 / BOUND_MASS_FRACTION:.0f} of the lightest "
+                f"part) and a {sphere_moment(m_bound):.3g} kg m² sphere inertia at its frame origin"
+            )
         if M <= 0:
             what = f"link '{g}'" if len(members) == 1 else f"links {members} (merged by fixed joints)"
             raise ModelError(
                 f"{where}: {what} has zero mass (no <inertial> or mass 0) but moves (joint "
                 f"'{parent_joint[g].name if g in parent_joint else 'floating base'}'); proleg parts need mass > 0. "
-                "Give the link an <inertial> block, or weld it to a massive link with a fixed joint."
+                "Give the link an <inertial> block, or weld it to a massive link with a fixed joint"
+                + (" (strict=True; without it such links are given a small mass or welded, with a warning)." if strict else ".")
             )
         com = sum(m * c for m, c in zip(ms, cs)) / M
         Jt = np.zeros((3, 3))
@@ -412,7 +488,14 @@ def load_urdf(
             d = c - com
             Jt += J + m * (d @ d * np.eye(3) - np.outer(d, d))
         if (bad := _check_inertia(Jt)) is not None:
-            raise ModelError(f"{where}: the inertia of link(s) {members} {bad}. Give physical inertia tensors.")
+            who = f"link '{g}'" if len(members) == 1 else f"the merged links {members}"
+            if strict:
+                raise ModelError(
+                    f"{where}: {who} inertia {bad}. Give a physical inertia tensor about the COM "
+                    "(every principal moment > 0, each at most the sum of the other two), or load with strict=False to repair it."
+                )
+            Jt, what = repair_inertia(M, Jt)
+            notes.append(f"{who} ({M:.4g} kg): inertia repaired, {what}")
         Xb = X_W[g] @ _X(p=com)
         body_X[g] = Xb
         model.add_part(g, M, Jt, Xb[:3, 3], Xb[:3, :3])
@@ -435,7 +518,7 @@ def load_urdf(
     info_joints, effort_limited = [], []
     for ln in order[1:]:
         j = parent_joint[ln]
-        if j.type == "fixed":
+        if j.type == "fixed" or j.name in welded:
             continue
         if j.type == "floating":
             notes.append(f"joint '{j.name}' (floating): link '{j.child}' is a free part, no joint")
@@ -504,7 +587,7 @@ def load_urdf(
         Xc = X_W[ln] @ _X(p=center)
         mk = model.add_marker(part_of(ln), f"{ln}.contact", Xc[:3, 3])
         try:
-            model.add_contact(SphereContact(f"{ln}.contact", mk, radius=radius, **(contact or {})))
+            model.add_contact(SphereContact(f"{ln}.contact", mk, radius=radius, **{**FOOT_CONTACT, **(contact or {})}))
         except ModelError as exc:  # a bad <sphere radius>: name the file and the link
             raise ModelError(f"{where}: link '{ln}' <collision><sphere>: {exc}") from None
         foot_list.append(ln)
@@ -550,18 +633,95 @@ def load_urdf(
         path=str(path), robot=robot.name, link_part={ln: group[ln] for ln in order}, link_frame=link_frame,
         joints=info_joints, base=root if floating_base else None, visuals=visuals, notes=notes, feet=foot_list,
         tree=[(root, None, None, None, np.eye(4), np.zeros(3))]
-        + [
-            (ln, parent_joint[ln].parent, parent_joint[ln].name, parent_joint[ln].type,
-             np.eye(4) if parent_joint[ln].origin is None else np.asarray(parent_joint[ln].origin, float), _axis(parent_joint[ln]))
-            for ln in order[1:]
-        ],
+        + [_tree_row(ln, parent_joint[ln], welded, q0) for ln in order[1:]],
         base_pose=X_W[root],
+        initial_positions={jn: q0.get(jn, 0.0) for jn, *_ in info_joints},
     )
+    if initial_velocities or base_velocity is not None:
+        from .urdf_kin import set_initial_velocity
+
+        set_initial_velocity(model, joint_rates=initial_velocities, base_velocity=base_velocity)
     model.urdf = info
     quiet = [n for n in notes if "not found" not in n]
     if quiet:
         warnings.warn(f"{where}: imported with approximations:\n  - " + "\n  - ".join(quiet), UrdfWarning, stacklevel=2)
     return model
+
+
+def _tree_row(ln, j, welded, q0):
+    """(link, parent, joint, type, origin (4, 4), axis (3,)); a welded joint is 'fixed' at its initial position."""
+    O = np.eye(4) if j.origin is None else np.asarray(j.origin, float)
+    if j.name in welded:
+        return (ln, j.parent, j.name, "fixed", O @ _joint_motion(j.type, _axis(j), q0.get(j.name, 0.0)), _axis(j))
+    return (ln, j.parent, j.name, j.type, O, _axis(j))
+
+
+def _groups(order, parent_joint, welded, root, floating_base):
+    """link → top link of its group of links joined by fixed (or ``welded``) joints; 'ground' for
+    the root's group when the base is welded."""
+    group = {}
+    for ln in order:
+        j = parent_joint.get(ln)
+        group[ln] = group[j.parent] if (j is not None and (j.type == "fixed" or j.name in welded)) else ln
+    if not floating_base:
+        for ln in order:
+            if group[ln] == root:
+                group[ln] = "ground"
+    return group
+
+
+def _mesh_sphere(link, X_W_link, path, package_dirs):
+    """(centre (3,) in the link frame, radius, flat) of the sphere fitted to the link's collision
+    meshes (urdf_feet), or None without a readable mesh."""
+    from .urdf_feet import fit_foot_sphere, mesh_vertices
+
+    V, _ = mesh_vertices(link, X_W_link, path, package_dirs)
+    if V is None:
+        return None
+    c, r, flat = fit_foot_sphere(V)
+    return (np.linalg.inv(X_W_link) @ np.append(c, 1.0))[:3], r, flat
+
+
+def _mesh_feet(order, links, group, parent_joint, welded, X_W, path, package_dirs, notes):
+    """Feet of a floating robot without collision spheres: the collision meshes of its leaf parts
+    that reach within FOOT_BAND of the robot's lowest collision point, one per part (urdf_feet),
+    as {link: None}."""
+    from .urdf_feet import FOOT_BAND, lowest_point, mesh_vertices
+
+    moving_child = {group[j.parent] for ln, j in parent_joint.items() if j.type != "fixed" and j.name not in welded}
+    lowest, why, z_all = {}, [], []
+    cache: dict = {}
+    for ln in order:
+        if not links[ln].collisions:
+            continue
+        z_prim = lowest_point(links[ln], X_W[ln])  # boxes, cylinders, spheres
+        if z_prim is not None:
+            z_all.append(z_prim)
+        if not any(c.geometry is not None and c.geometry.mesh is not None for c in links[ln].collisions):
+            continue
+        V, err = mesh_vertices(links[ln], X_W[ln], path, package_dirs, cache)
+        if V is None:
+            why.append(f"'{ln}': {err}")
+            continue
+        z = float(V[:, 2].min())
+        z_all.append(z)
+        g = group[ln]
+        if g == "ground" or g in moving_child or g == group[order[0]]:
+            continue  # feet are on the leaf parts
+        if g not in lowest or z < lowest[g][1]:
+            lowest[g] = (ln, z)
+    if why:
+        notes.append("foot search skipped collision meshes it could not read: " + "; ".join(why))
+    if not lowest:
+        return {}
+    z_min = min(z_all)
+    feet = {ln: None for ln, z in lowest.values() if z <= z_min + FOOT_BAND}
+    if not feet:
+        notes.append(
+            "no feet found: no collision sphere, and no leaf part's collision mesh is the robot's lowest collision shape; "
+            "give feet=[link names] (a sphere is fitted to each one's collision mesh) or feet={link: radius}"
+        )
+    return feet
 
 
 def _axis(j):

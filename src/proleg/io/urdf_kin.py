@@ -136,3 +136,61 @@ def joint_space_jacobian(model, qj, *, base_position=None, base_quaternion=None)
         return joint_space_state(model, qj, nu[nb:], base_position=base_position, base_quaternion=base_quaternion, base_velocity=base)[1]
 
     return jax.jacfwd(v_of)(jnp.zeros(nb + nj))
+
+
+def set_initial_velocity(model, joint_rates=None, base_velocity=None):
+    """Give a URDF model (from :func:`proleg.io.load_urdf`) initial joint rates and a base twist.
+
+    Writes the consistent velocity of every part (``part.velocity``, ``part.angular_velocity``)
+    at the modelled pose, so ``simulate`` starts from them; joints not named keep rate 0.
+
+    Parameters
+    ----------
+    model : Model from ``load_urdf`` (positions are the modelled pose; set them with
+        ``load_urdf(initial_positions=...)``)
+    joint_rates : dict joint name → rate [rad/s or m/s], URDF sign
+    base_velocity : (6,) [m/s ×3, rad/s ×3], the floating base's twist (v, ω): velocity of the
+        root-link frame origin and angular velocity, both in root-link axes (Pinocchio's
+        free-flyer convention; at the default base orientation the root-link axes are the
+        ground axes). Ignored (must be None or zero) on a welded base.
+
+    Returns
+    -------
+    model (changed in place)
+    """
+    from ..model._validate import finite_array, finite_scalar
+    from ..spatial.rotation import G_of_p
+
+    info = _info(model)
+    names = info.joint_names()
+    vj = np.zeros(len(names))
+    for k, val in (joint_rates or {}).items():
+        if k not in names:
+            raise ModelError(
+                f"initial joint rates: '{k}' is not a moving joint of model '{model.name}'. Known: {names}"
+            )
+        vj[names.index(k)] = finite_scalar(f"joint rate '{k}'", val, unit="rad/s or m/s")
+    nu = None
+    if base_velocity is not None:
+        nu = finite_array("base_velocity (v, ω) [m/s, rad/s]", base_velocity, (6,))
+        if info.base is None and np.any(nu != 0):
+            raise ModelError(
+                f"base_velocity: model '{model.name}' has a welded base (load_urdf(floating_base=False)); "
+                "it cannot move. Load it with a floating base, or leave base_velocity out."
+            )
+    qj = np.array([info.initial_positions.get(n, 0.0) for n in names])
+    _, v, _ = joint_space_state(model, qj, vj, base_velocity=nu)
+    v = np.asarray(v)
+    q = np.asarray(forward_kinematics(model, jnp.asarray(info.base_pose[:3, 3]), jnp.asarray(_p_of(info.base_pose)), jnp.asarray(qj)))
+    for k, part in enumerate(model.parts):
+        pdot = v[7 * k + 3 : 7 * k + 7]
+        p = q[7 * k + 3 : 7 * k + 7]
+        part.velocity = v[7 * k : 7 * k + 3].copy()
+        part.angular_velocity = 2.0 * np.asarray(G_of_p(p)) @ pdot
+    return model
+
+
+def _p_of(X):
+    from ..spatial.rotation import p_from_matrix
+
+    return p_from_matrix(X[:3, :3])
