@@ -1,6 +1,7 @@
-"""Scout II studies of issue 31: set points for a commanded speed, leg-friction calibration kept
-apart from validation, the specific resistance against speed (seed 003 Fig. 7) and the finding
-across the ranges of the unknown parameters.
+"""Scout II studies (issues 31, 44): set points for a commanded speed, the specific resistance
+against speed (seed 003 Fig. 7) and the finding across the ranges of the unknown parameters.
+The one calibrated quantity of the decided reading, the leg damping, is fitted in
+:mod:`proleg.papers.scout2_reading`.
 
 Every run starts the same way for both models (:class:`~proleg.robots.scout2.Scout2Params`: at
 rest in the standing posture, released from a small drop; the controller brings the robot into
@@ -9,8 +10,6 @@ numbers only.
 
 - :func:`setpoint_for_speed`: the touchdown angles (Table 4's, shifted together by δ) that give a
   commanded forward speed, by bisection on δ (a run that stops or falls counts as too slow);
-- :func:`calibrate_leg_friction`: the telescopic leg's friction coefficient fitted on the
-  electrical specific resistance at the nominal set point only (:mod:`proleg.identify.calibration`);
 - :func:`range_rows`: Model II at the ends of each unknown parameter's justified range.
 
 Each run becomes a row (:func:`point_row`): set point, speed, period, specific resistances; the
@@ -28,7 +27,7 @@ from ..robots import scout2_data as D
 from ..robots.scout2 import scout2
 from .scout2_bound import scout2_bound
 
-__all__ = ["variant_system", "run_point", "point_row", "setpoint_for_speed", "calibrate_leg_friction", "range_rows", "RANGES", "PAPER_POINTS"]
+__all__ = ["variant_system", "run_point", "point_row", "setpoint_for_speed", "range_rows", "RANGES", "PAPER_POINTS"]
 
 #: Unknown Model II parameters and their justified ranges (scout2_data cites the reasoning).
 RANGES = {
@@ -112,29 +111,6 @@ def setpoint_for_speed(model, target, t_end, *, base, bounds=(-10 * deg, 4 * deg
                     source="controller set point for a commanded speed (not a model parameter)")
     best = min(runs, key=lambda d: abs(d - cal.value))
     return best, runs[best]
-
-
-def calibrate_leg_friction(t_end, *, base, measured_sr=D.SR_ELECTRICAL, xtol=0.01, rows=None, history=None, **params):
-    """Fit Model II's ``leg_mu`` on the electrical specific resistance at the nominal set point
-    (seed 003 Fig. 7: ≈ 1.4 at the robot's 1.3 m/s), within its justified range. Returns the
-    :class:`~proleg.identify.calibration.Calibrated` record and the runs by value."""
-    from ..identify.calibration import fit_to
-
-    runs = {}
-
-    def predict(mu):
-        r = run_point("II", t_end, base=base, leg_mu=mu, **params)
-        runs[mu] = r
-        row = point_row(r, "Model II, calibration", leg_mu=mu)
-        if rows is not None:
-            rows.append(row)
-        # a specific resistance is a property of a steady gait: none (period 0) gives no value
-        sr = row["SR electrical"] if row["period"] in (1, 2) else np.nan
-        return {"electrical specific resistance at the nominal set point": sr}
-
-    cal = fit_to("leg_mu", predict, {"electrical specific resistance at the nominal set point": measured_sr}, RANGES["leg_mu"][0],
-                    unit="-", xtol=xtol, history=history, source="scout2_data: dry plain-bearing friction coefficients; data seed 003 Fig. 7")
-    return cal, runs
 
 
 def range_rows(t_end, *, base, names=tuple(RANGES), rows=None, **params) -> list[dict]:

@@ -35,7 +35,8 @@
   flow (``DCMotorDrive.gear_drag``/``gear_viscous``), and a belt stage whose losses depend on
   the transmitted torque and speed (``DCMotorDrive.belt``, :mod:`proleg.drives.belt`: Table 3's
   96 % at full torque, less at part load). Their values are estimates with ranges
-  (scout2_data); the report calibrates the leg friction on one specific resistance.
+  (scout2_data); they are not calibrated. The one calibrated quantity is the leg damping
+  (issue 44, :mod:`proleg.papers.scout2_reading`: fitted on the robot's measured speed).
 
 Leg geometry: Table 6's leg length 0.323 m (Table 2 "l0 nominal leg length") is the hip-to-ground
 length of the fully extended leg: the toe sphere's centre sits ``toe_radius`` up the leg from
@@ -436,7 +437,7 @@ def _parameter_table(p: Scout2Params, variant, per, drive):
         (f"leg mass (per {per} leg)", p.leg_mass, "kg", "Table 6"),
         (f"leg inertia (per {per} leg)", p.leg_inertia, "kg m²", "Table 6"),
         (f"leg spring (per {per} leg)", p.leg_stiffness, "N/m", "Table 6 (Table 2: k_i)"),
-        (f"leg damping (per {per} leg)", p.leg_damping, "N s/m", "Table 6 (Table 2: b_i)"),
+        (f"leg damping (per {per} leg)", p.leg_damping, "N s/m", "Table 6 (Table 2: b_i) as printed by default; the scout2-bound report calibrates it in 0.3–1.0 × Table 6 on the measured speed (scout2_reading)"),
         ("half hip spacing", p.half_hip_spacing, "m", "Table 6 (0.552 / 2)"),
         ("nominal leg length (extension stop)", p.leg_length, "m", "Table 6"),
         ("lower-leg mass fraction", p.lower_mass_fraction, "-", "chosen (paper: one leg body)"),
@@ -472,7 +473,7 @@ def _parameter_table(p: Scout2Params, variant, per, drive):
             ("belt spring", p.belt_stiffness, "N m/rad", "Table 5 (7.0 N m/deg)"),
             ("belt damper", p.belt_damping, "N m s/rad", "Table 5, 4.0e-2 N m s/deg interpreted"),
             ("leg angle sensor", p.angle_sensor, "-", "§3.1: motor encoders"),
-            ("leg bushing friction μ_d (μ_s / μ_d)", f"{p.leg_mu:g} ({p.leg_mu_static_ratio:g})", "-", "estimate, range 0.03–0.3 (scout2_data); calibrated in the report"),
+            ("leg bushing friction μ_d (μ_s / μ_d)", f"{p.leg_mu:g} ({p.leg_mu_static_ratio:g})", "-", "estimate, range 0.03–0.3 (scout2_data); not calibrated"),
             ("leg bushing overlap / centre below hip", f"{p.leg_overlap:g} / {p.leg_bearing:g}", "m", "estimate, ranges in scout2_data"),
             ("leg stiction / sliding transition speeds", f"{p.leg_v_stiction:g} / {p.leg_v_friction:g}", "m/s", "regularisation (Adams FRICTION)"),
             ("gear drag, Coulomb / viscous (per motor, motor shaft)", f"{p.gear_drag:g} / {p.gear_viscous:g}", "N m, N m s/rad", "estimate, ranges in scout2_data"),
