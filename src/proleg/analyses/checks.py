@@ -167,7 +167,9 @@ def check_simulate(system, args: dict, who: str = "simulate"):
     if not _any_traced_params(system):
         dt_max_eff = dt_max if dt_max is not None else min(t_span, 1e-2)  # simulate's default
         stiffness_warnings(system, dt_max_eff, dt_min if dt_min is not None else 1e-10, who)
-    contact_warnings(system, g("q0"), who)
+        # Once per run: a sweep or study checks here before its batches, whose own simulate
+        # calls see traced parameters and stay quiet (one warning, not one per batch).
+        contact_warnings(system, g("q0"), who)
 
 
 def _span(t_end, dt_output, t0, times):

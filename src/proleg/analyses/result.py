@@ -16,6 +16,8 @@ from ..compile_cache import cached_jit, jit, tracing
 from ..errors import ModelError, Status
 from ..spatial.rotation import L_of_p, euler_zyx_deg
 from ..solvers.initial import kkt_accelerations
+from .joint_motion import QUANTITIES as JOINT_UNITS
+from .joint_motion import joint_motion, marker_histories
 
 
 class PartResult:
@@ -68,10 +70,15 @@ def _omega(p, pd):
 
 @dataclass
 class JointResult:
-    """Reaction of joint ``name`` on its part I (the first part), at marker I's origin.
+    """Reaction and motion of joint ``name`` (or motion, or coupler): the reaction on its part I
+    (the first part), at marker I's origin, and the motion of marker I relative to marker J.
 
     ``force``/``torque`` [N, N m] in ground components; ``force_local``/``torque_local`` in
-    marker-I axes; ``angle`` [rad] and ``translation`` [m] of I relative to J about/along z_J.
+    marker-I axes; ``angle`` [rad], ``angular_velocity`` [rad/s] and ``angular_acceleration``
+    [rad/s²] of I relative to J about z_J; ``translation`` [m], ``velocity`` [m/s] and
+    ``acceleration`` [m/s²] along z_J (analyses/joint_motion.py has the formulas: each the time
+    derivative of the one before, from the parts' accelerations of the equations of motion).
+    All (n,) but the forces and torques (n, 3).
     """
 
     name: str
@@ -81,6 +88,10 @@ class JointResult:
     torque_local: np.ndarray
     angle: np.ndarray
     translation: np.ndarray
+    angular_velocity: np.ndarray | None = None
+    angular_acceleration: np.ndarray | None = None
+    velocity: np.ndarray | None = None
+    acceleration: np.ndarray | None = None
 
 
 class ElementResult(dict):
@@ -160,10 +171,64 @@ class Result:
     def lam(self):
         return self._post["lam"]
 
-    def _index(self, names, name, what):
+    # -- names: which accessor reads what ---------------------------------------------------------
+    def _kinds_of(self, key) -> list[tuple[str, str]]:
+        """(what ``key`` names in the model, the accessor that reads it), for every element called
+        ``key`` (a name may be a part's and a marker's at once)."""
+        topo = self.system.topo
+        out = []
+        if key in topo.body_names:
+            out.append(("a part", "part"))
+        out += [_owner_kind(o) for o in topo.ct.owners if o.name == key]
+        for g in topo.groups + topo.extensions:
+            if key in getattr(g, "names", ()):
+                out.append(_group_kind(g))
+        flex = topo.flex
+        if flex is not None and key in flex.names:
+            out.append(("a flexible body", "deformation"))
+        if key in topo.marker_names:
+            out.append(("a marker", "marker"))
+        return list(dict.fromkeys(out))
+
+    def _names_of(self, accessor) -> list[str]:
+        """The names ``result.<accessor>(name)`` accepts."""
+        topo = self.system.topo
+        if accessor == "part":
+            return list(topo.body_names)
+        if accessor == "marker":
+            return list(topo.marker_names)
+        if accessor in ("joint", "motion", "coupler"):
+            owners = topo.ct.owners
+            if accessor == "joint":
+                return [o.name for o in owners]
+            return [o.name for o in owners if _owner_kind(o)[1] == accessor]
+        return [n for g in topo.groups + topo.extensions for n in getattr(g, "names", ())
+                if accessor == "element" or _group_kind(g)[1] == accessor]
+
+    def _not_found(self, key, accessor):
+        """ModelError for ``result.<accessor>(key)`` where ``key`` is not of that kind: what it is
+        and which accessor reads it, or the close matches; and the names the accessor accepts."""
+        import difflib
+
+        what, plural = _ACCESSOR_WORDS[accessor]
+        model = self.system.topo.name
+        names = self._names_of(accessor)
+        others = [(w, a) for w, a in self._kinds_of(key) if a != accessor]
+        if others:
+            uses = " or ".join(f"result.{a}('{key}')" for _, a in others)
+            msg = f"'{key}' is {' and '.join(w for w, _ in others)} of '{model}', not {_article(what)}: use {uses}."
+        else:
+            msg = f"No {what} named '{key}' in the result of '{model}'."
+            close = difflib.get_close_matches(str(key), names, n=3, cutoff=0.5)
+            if close:
+                msg += f" Close matches: {close}."
+        msg += f" Known {plural}: {names}." if names else f" The model has no {plural}."
+        raise ModelError(msg)
+
+    def _index(self, names, name, what, accessor=None):
         key = getattr(name, "name", name)
         if key not in names:
-            raise ModelError(f"No {what} named '{key}' in the result. Known: {list(names)}")
+            self._not_found(key, accessor or what)
         return names.index(key)
 
     # -- parts ---------------------------------------------------------------------------------
@@ -188,9 +253,19 @@ class Result:
 
     def joint(self, name) -> JointResult:
         owners = [o.name for o in self.system.topo.ct.owners]
-        k = self._index(owners, name, "joint or motion")
+        k = self._index(owners, name, "joint", "joint")
         F, T, Fl, Tl, ang, tr = (x[:, k] for x in self._reactions)
-        return JointResult(str(getattr(name, "name", name)), *(self._np(x) for x in (F, T, Fl, Tl, ang, tr)))
+        mo = self._owner_motion[k]
+        return JointResult(str(getattr(name, "name", name)), *(self._np(x) for x in (F, T, Fl, Tl, ang, tr)),
+                           **{q: mo[q] for q in ("angular_velocity", "angular_acceleration", "velocity", "acceleration")})
+
+    @cached_property
+    def _owner_motion(self) -> list[dict]:
+        """analyses/joint_motion.py's six quantities for every constraint owner (joints, motions,
+        couplers), in ``topo.ct.owners`` order."""
+        mi, mj = _owner_markers(self.system.topo)
+        kin = marker_histories(self, mi + mj)
+        return [joint_motion(kin[a], kin[b]) for a, b in zip(mi, mj)]
 
     # -- force elements ------------------------------------------------------------------------
     @property
@@ -204,12 +279,17 @@ class Result:
 
     def element(self, name) -> ElementResult:
         """Outputs of the force element (or contact, actuator, controller) called ``name``."""
+        return self._element(name, "element")
+
+    def _element(self, name, accessor):
         key = getattr(name, "name", name)
         for g in self.system.topo.groups + self.system.topo.extensions:
-            if key in g.names:
+            if key in getattr(g, "names", ()) and accessor in ("element", _group_kind(g)[1]):
+                if g.kind == "controller":
+                    return self.controller(key)
                 k = g.names.index(key)
                 return ElementResult({n: self._np(a[:, k]) for n, a in self._element_outputs[g.kind].items()})
-        raise ModelError(f"No force element named '{key}' in the result.")
+        self._not_found(key, accessor)
 
     force = element
 
@@ -234,11 +314,16 @@ class Result:
 
     def contact(self, name) -> ElementResult:
         """normal_force (n,), friction_force (n, 3), force (n, 3) on the contacting part (= the GRF a
-        force plate measures), penetration, penetration_rate, slip_velocity, in_contact, point."""
-        return self.element(name)
+        force plate measures), penetration, penetration_rate, slip_velocity, in_contact, point.
+        A name that is not a contact's is a ModelError saying what it is and what reads it."""
+        return self._element(name, "contact")
 
     def actuator(self, name) -> ElementResult:
-        return self.element(name)
+        """Outputs of a JointActuator (effort, command, coordinate, rate, power; a drive's current,
+        voltages, ...), TranslationalActuator or HydraulicActuator (force, axial_force, command,
+        length, velocity, power). A controller's name is a ModelError pointing to
+        :meth:`controller` (what the servo commands), as is any other name that is not an actuator's."""
+        return self._element(name, "actuator")
 
     def controller(self, name) -> ElementResult:
         """``output`` (the held command u [N m or N]) and ``state`` (the controller's z slice)."""
@@ -254,13 +339,16 @@ class Result:
                 if e.kind == "pid":
                     res["command"] = self._np(zs[:, 2])
                 return res
-        raise ModelError(f"No controller named '{key}' in the result.")
+        self._not_found(key, "controller")
 
     def motion(self, name) -> ElementResult:
         """``effort``: the force [N] or torque [N m] the motion applies to the joint's part I along/about z."""
+        key = getattr(name, "name", name)
+        if key not in self._names_of("motion"):
+            self._not_found(key, "motion")
         jr = self.joint(name)
         owners = self.system.topo.ct.owners
-        m = next(o for o in owners if o.name == getattr(name, "name", name))
+        m = next(o for o in owners if o.name == key)
         eff = jr.torque_local[:, 2] if m.dof == "rotation" else jr.force_local[:, 2]
         coord = jr.angle if m.dof == "rotation" else jr.translation
         return ElementResult(effort=self._np(eff), coordinate=self._np(coord), force=jr.force, torque=jr.torque)
@@ -272,7 +360,7 @@ class Result:
         key = getattr(name, "name", name)
         ct = self.system.topo.ct
         owners = [o.name for o in ct.owners]
-        k = self._index(owners, key, "coupler")
+        k = self._index(owners, key, "coupler", "coupler")
         cp = ct.owners[k]
         if getattr(cp, "kind", "") != "coupler":
             raise ModelError(f"'{key}' is a {getattr(cp, 'kind', 'joint')}, not a Coupler; use result.joint('{key}').")
@@ -328,18 +416,19 @@ class Result:
                 cols[f"{o.name}.T{ax} [N m]"] = jr.torque[:, k]
         units = self.element_units()
         for g in self.system.topo.groups + self.system.topo.extensions:
-            if not (len(g) and hasattr(g, "outputs")):
+            if not (len(g) and hasattr(g, "outputs")) or g.kind == "controller":
                 continue
-            for n in g.names:
+            for k_el, n in enumerate(g.names):
                 er = self.element(n)
                 for key, arr in er.items():
-                    u = units[g.kind][key]
+                    u = _one_unit(units[g.kind][key], getattr(g, "rot", None), k_el)
                     arr = np.asarray(arr)
                     if arr.ndim == 1:
                         cols[f"{n}.{key} [{u}]"] = arr
                     else:
                         for k in range(arr.shape[1]):
                             cols[f"{n}.{key}_{'xyzabc'[k] if arr.shape[1] <= 6 else k} [{u}]"] = arr[:, k]
+        cols.update(self._controller_columns(self._actuator_units()))
         e = self.energy
         for k in ("kinetic", "potential", "dissipated", "input", "total"):
             cols[f"energy.{k} [J]"] = e[k]
@@ -348,55 +437,64 @@ class Result:
         return df
 
     def _joint_coordinate_columns(self) -> dict:
-        """The coordinate and rate of every revolute, screw, cylindrical and prismatic joint:
-        ``NAME.angle [rad]`` and ``NAME.angular_velocity [rad/s]`` (rotation of marker I relative
-        to J about z_J, as :meth:`joint`'s ``angle``: zero at the modelled pose, or the URDF's
-        position and sign for an imported joint, in (−π, π]), ``NAME.translation [m]`` and
-        ``NAME.velocity [m/s]`` (along z_J). Rates: z_J·(ω_I − ω_J) and
-        z_J·(v_I − v_J) + (ω_J × z_J)·(r_I − r_J), the time derivatives of those coordinates.
-
-        NumPy from the stored q, v (no compilation) when every joint marker is on a rigid part;
-        the compiled marker kinematics otherwise (flexible parts' markers move with the modes)."""
+        """The coordinate, rate and acceleration of every revolute, screw, cylindrical and
+        prismatic joint: ``NAME.angle [rad]``, ``NAME.angular_velocity [rad/s]`` and
+        ``NAME.angular_acceleration [rad/s²]`` (rotation of marker I relative to J about z_J, as
+        :meth:`joint`'s ``angle``: zero at the modelled pose, or the URDF's position and sign for
+        an imported joint, in (−π, π]), ``NAME.translation [m]``, ``NAME.velocity [m/s]`` and
+        ``NAME.acceleration [m/s²]`` (along z_J). Each is the time derivative of the one before
+        (analyses/joint_motion.py), the accelerations from the parts' accelerations of the
+        equations of motion (:attr:`qdd`), not from differences of outputs."""
         topo = self.system.topo
         rot, trans = ("revolute", "screw", "cylindrical"), ("prismatic", "cylindrical")
-        joints = [j for j in topo.joints if getattr(j, "kind", "") in rot + trans]
-        if not joints or isinstance(self.q, jax.core.Tracer):
+        if isinstance(self.q, jax.core.Tracer):
             return {}
-        index = {n: k for k, n in enumerate(topo.marker_names)}
-        nb = topo.nbody
-        flexible = {k for k, p in enumerate(getattr(topo.model, "parts", [])) if getattr(p, "is_flexible", False)}
-        used = [index[m.name] for j in joints for m in (j.marker_i, j.marker_j)]
-        if any(int(topo.marker_body[m]) in flexible for m in used):
-            mk = self._marker_kin
-            kin = {m: tuple(np.asarray(x[:, m]) for x in (mk.r, mk.R, mk.v, mk.w)) for m in used}
-        else:
-            S, C = np.asarray(self.system.params["marker_s"]), np.asarray(self.system.params["marker_C"])
-            parts, kin, n = {}, {}, len(self.t)
-            for m in used:
-                b = int(topo.marker_body[m])
-                if b >= nb:  # ground
-                    kin[m] = (np.broadcast_to(S[m], (n, 3)), np.broadcast_to(C[m], (n, 3, 3)), np.zeros((n, 3)), np.zeros((n, 3)))
-                    continue
-                if b not in parts:
-                    parts[b] = self.part(topo.body_names[b])
-                pr = parts[b]
-                A = np.asarray(pr.orientation)
-                s = A @ S[m]
-                w = np.asarray(pr.angular_velocity)
-                kin[m] = (pr.position + s, A @ C[m], pr.velocity + np.cross(w, s), w)
+        index = {id(o): k for k, o in enumerate(topo.ct.owners)}
+        joints = [j for j in topo.joints if getattr(j, "kind", "") in rot + trans and id(j) in index]
+        if not joints:
+            return {}
+        motion = self._owner_motion
         cols = {}
         for j in joints:
-            (rI, RI, vI, wI), (rJ, RJ, vJ, wJ) = kin[index[j.marker_i.name]], kin[index[j.marker_j.name]]
-            zJ = RJ[:, :, 2]
-            if j.kind in rot:
-                xI = RI[:, :, 0]
-                cols[f"{j.name}.angle [rad]"] = np.arctan2(np.sum(xI * RJ[:, :, 1], -1), np.sum(xI * RJ[:, :, 0], -1))
-                cols[f"{j.name}.angular_velocity [rad/s]"] = np.sum(zJ * (wI - wJ), -1)
-            if j.kind in trans:
-                d = rI - rJ
-                cols[f"{j.name}.translation [m]"] = np.sum(zJ * d, -1)
-                cols[f"{j.name}.velocity [m/s]"] = np.sum(zJ * (vI - vJ), -1) + np.sum(np.cross(wJ, zJ) * d, -1)
+            mo = motion[index[id(j)]]
+            keys = (("angle", "angular_velocity", "angular_acceleration") if j.kind in rot else ()) + (
+                ("translation", "velocity", "acceleration") if j.kind in trans else ())
+            for q in keys:
+                cols[f"{j.name}.{q} [{JOINT_UNITS[q]}]"] = np.asarray(mo[q])
         return cols
+
+    def _controller_columns(self, units) -> dict:
+        """``NAME.output [N m]`` (or [N]) of every controller — what a PID holds, u, in the unit of
+        its joint (N m about a rotation, N along a translation) — and ``NAME.command [unit]``,
+        what its actuator receives (u / lever_arm for a cylinder [N]); a DiscreteController's
+        or StateMachine's ``NAME.output_ACTUATOR [unit]`` per actuator it drives, in that
+        actuator's unit."""
+        cols = {}
+        for g in self.system.topo.extensions:
+            if g.kind != "controller" or not len(g):
+                continue
+            k_pid = 0
+            for e in g.elements:
+                res = self.controller(e.name)
+                if e.kind == "pid":
+                    u_out = "N m" if bool(g.pid_rot[k_pid]) else "N"
+                    k_pid += 1
+                    cols[f"{e.name}.output [{u_out}]"] = np.asarray(res["output"])
+                    cols[f"{e.name}.command [{units.get(e.actuator_ref, u_out)}]"] = np.asarray(res["command"])
+                else:
+                    out = np.asarray(res["output"]).reshape(len(self.t), -1)
+                    for k, a in enumerate(e.outputs):
+                        cols[f"{e.name}.output_{a} [{units.get(a, '-')}]"] = out[:, k]
+        return cols
+
+    def _actuator_units(self) -> dict:
+        """{actuator name: unit of its command}: N m for a JointActuator on a rotation, N otherwise."""
+        out = {}
+        for g in self.system.topo.extensions:
+            if g.kind in _ACTUATOR_KINDS:
+                rot = getattr(g, "rot", np.zeros(len(g), bool))
+                out.update({n: ("N m" if bool(r) else "N") for n, r in zip(g.names, rot)})
+        return out
 
     def to_parquet(self, path):
         """Write :meth:`to_frame` to Parquet (pyarrow); returns the path.
@@ -413,10 +511,15 @@ class Result:
         return path
 
     def plot(self, *columns, ax=None):
-        """Quick look: plot columns of :meth:`to_frame` (substring match) against time.
+        """Quick look: plot columns of :meth:`to_frame` (substring match) against time, one
+        y axis per unit, so that a height [m] and a force [N] are both readable.
 
-        A name that matches no column is a :class:`~proleg.errors.ProlegWarning` naming the
-        closest columns (nothing is plotted for it).
+        Without ``ax``: one subplot per unit, stacked and sharing the time axis, each labelled
+        with its unit. With ``ax``: the first unit on ``ax``, each further unit on a twin axis of
+        it (``ax.twinx()``; a third or more offset to the right). Returns the first (top) axis;
+        ``ax.figure`` is the whole figure and ``ax.figure.axes`` lists every axis. A name that
+        matches no column is a :class:`~proleg.errors.ProlegWarning` naming the closest columns
+        (nothing is plotted for it).
         """
         import matplotlib
 
@@ -424,8 +527,6 @@ class Result:
         import matplotlib.pyplot as plt
 
         df = self.to_frame()
-        if ax is None:
-            fig, ax = plt.subplots(figsize=(7, 4))
         for s in columns:
             if not any(s in c for c in df.columns):
                 import difflib
@@ -436,16 +537,97 @@ class Result:
                 warn(f"Result.plot: '{s}' matches no output column of '{self.system.topo.name}'"
                      + (f"; closest: {near}" if near else "") + ". result.to_frame().columns lists them.")
         sel = [c for c in df.columns if any(s in c for s in columns)] if columns else list(df.columns[1:4])
+        sel = [c for c in sel if c != "time [s]"]
+        by_unit = {}
         for c in sel:
-            ax.plot(df["time [s]"], df[c], label=c)
-        ax.set_xlabel("time [s]")
-        if sel:
-            ax.legend(fontsize=7)
-        ax.grid(alpha=0.3)
-        return ax
+            by_unit.setdefault(_column_unit(c), []).append(c)
+        n = max(len(by_unit), 1)
+        if ax is None:
+            fig, axes = plt.subplots(n, 1, figsize=(7, 2.2 + 1.8 * n), sharex=True, squeeze=False)
+            axes = list(axes[:, 0])
+            axes[-1].set_xlabel("time [s]")
+        else:
+            axes = [ax] + [ax.twinx() for _ in range(n - 1)]
+            for k, tw in enumerate(axes[2:], start=1):
+                tw.spines["right"].set_position(("axes", 1.0 + 0.12 * k))
+            ax.set_xlabel("time [s]")
+        t = df["time [s]"]
+        cycle = matplotlib.rcParams["axes.prop_cycle"].by_key().get("color", ["C0"])
+        k_line = 0
+        for a, (unit, cols) in zip(axes, by_unit.items()):
+            for c in cols:
+                a.plot(t, df[c], label=c, color=cycle[k_line % len(cycle)])
+                k_line += 1
+            a.set_ylabel(f"[{unit}]")
+        if ax is None:
+            for a in axes:
+                if a.lines:
+                    a.legend(fontsize=7)
+                a.grid(alpha=0.3)
+        else:
+            lines = [ln for a in axes for ln in a.lines]
+            if lines:
+                ax.legend(lines, [ln.get_label() for ln in lines], fontsize=7)
+            ax.grid(alpha=0.3)
+        return axes[0]
 
     def __repr__(self):
         return f"Result({self.system.topo.name!r}: {len(self.t)} outputs to t = {self.t[-1]:.4g} s, {self.stats['steps']} steps, {self.message})"
+
+
+# accessor → (what one name is, what the names are), for the errors of the accessors
+_ACCESSOR_WORDS = {
+    "part": ("part", "parts"), "marker": ("marker", "markers"), "joint": ("joint or motion", "joints and motions"),
+    "motion": ("motion", "motions"), "coupler": ("coupler", "couplers"), "contact": ("contact", "contacts"),
+    "actuator": ("actuator", "actuators"), "controller": ("controller", "controllers"),
+    "element": ("force element, contact, actuator or controller", "elements"),
+}
+_ACTUATOR_KINDS = ("joint_actuator", "translational_actuator", "hydraulic_actuator")
+
+
+def _column_unit(column: str) -> str:
+    """The unit of a :meth:`Result.to_frame` column, ``"lower.z [m]"`` → ``"m"``; "-" if none."""
+    if column.endswith("]") and " [" in column:
+        return column[column.rindex(" [") + 2 : -1]
+    return "-"
+
+
+def _one_unit(unit: str, rot, k: int) -> str:
+    """A joint element's output unit for its own degree of freedom: ``"N m|N"`` (rotation or
+    translation) becomes ``"N m"`` on a rotation (``rot[k]``), ``"N"`` on a translation."""
+    if "|" not in unit or rot is None:
+        return unit
+    options = unit.split("|")
+    rotational = [o for o in options if "rad" in o or "N m" in o]
+    other = [o for o in options if o not in rotational]
+    if bool(rot[k]):
+        return rotational[0] if rotational else unit
+    return other[0] if other else unit
+
+
+def _article(what: str) -> str:
+    return ("an " if what[:1] in "aeiou" else "a ") + what
+
+
+def _group_kind(g) -> tuple[str, str]:
+    """(what an element of group ``g`` is, the Result accessor that reads it)."""
+    if g.kind == "contact":
+        return "a contact", "contact"
+    if g.kind == "controller":
+        return "a controller", "controller"
+    if g.kind in _ACTUATOR_KINDS:
+        return _article(g.kind.replace("_", " ")), "actuator"
+    return _article(f"{g.kind.replace('_', ' ')} element"), "element"
+
+
+def _owner_kind(o) -> tuple[str, str]:
+    """(what constraint owner ``o`` is, the Result accessor that reads it)."""
+    kind = getattr(o, "kind", None)
+    if kind == "coupler":
+        return "a coupler", "coupler"
+    if type(o).__name__ == "Motion":
+        return "a motion", "motion"
+    return (f"a {kind} joint" if kind else "a joint"), "joint"
 
 
 _UNITS = weakref.WeakKeyDictionary()  # topology → {group kind: {output: unit}}
