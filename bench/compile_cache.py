@@ -30,6 +30,17 @@ example ≤ 3 s cold, ≤ 1 s warm; 7-link chain ≤ 6 s cold. ``hyq`` adds the 
 the same children on another checkout's sources too (PYTHONPATH, interleaved with this one's
 runs so both see the same load): issue 29's "time to first result must not regress" is this
 table with ``--src`` a worktree of the commit before ``integrator="auto"`` (e754ddf).
+
+``--startup`` (issue 42): what ``import proleg`` costs and which imports make it up, so that an
+upstream release that slows start-up is named rather than found by bisection. ``--repeat``
+fresh processes (default 5) run ``python -X importtime -c "import proleg"``; the per-module
+self times are summed per top-level package (the installed distribution and its version beside
+it) and the median over the processes is reported, slowest package first; the same number of
+plain ``python -c "import proleg"`` processes give the wall and CPU time without importtime's
+own overhead (the CPU time varies least with other jobs' load). ``--src DIR`` prepends DIR to PYTHONPATH for a second set of processes, interleaved
+with this one's: a folder holding another version of one dependency (``pip install --no-deps
+--target DIR ml_dtypes==0.7.0``) shows what that version costs. Writes
+``bench/results/startup.md`` and ``.json``.
 """
 
 from __future__ import annotations
@@ -189,6 +200,129 @@ def main_table(args):
     emit(args, "Time from import to the table (issue 20)", rows, cols, {"models": args.models}, notes)
 
 
+def parse_importtime(stderr: str) -> dict[str, tuple[float, float]]:
+    """``-X importtime`` lines as {module: (self [s], cumulative [s])} (the last line for a module
+    wins; a module is imported once per process)."""
+    out = {}
+    for line in stderr.splitlines():
+        if not line.startswith("import time:") or "imported package" in line:
+            continue
+        try:
+            _, self_us, cum_us, name = (part.strip() for part in line.replace("import time:", "|", 1).split("|", 3))
+            out[name] = (int(self_us) / 1e6, int(cum_us) / 1e6)
+        except ValueError:
+            continue
+    return out
+
+
+def package_times(modules: dict[str, tuple[float, float]]) -> dict[str, dict[str, float]]:
+    """Per top-level package: {module: self time [s]} of its modules."""
+    out: dict[str, dict[str, float]] = {}
+    for name, (self_s, _) in modules.items():
+        out.setdefault(name.split(".", 1)[0], {})[name] = self_s
+    return out
+
+
+_VERSIONS = r"""
+import importlib.metadata as md, json, sys
+tops = json.loads(sys.argv[1])
+dists = md.packages_distributions()
+out = {}
+for top in tops:
+    names = dists.get(top)
+    if not names:
+        out[top] = "stdlib" if top in sys.stdlib_module_names or top.startswith("_") else ""
+        continue
+    try:
+        out[top] = f"{names[0]} {md.version(names[0])}"
+    except md.PackageNotFoundError:
+        out[top] = names[0]
+print(json.dumps(out))
+"""
+
+
+def distributions(tops, env) -> dict[str, str]:
+    """The installed distribution and version behind each top-level package, as the children see
+    them (``env``: their PYTHONPATH may put another version first)."""
+    p = subprocess.run([sys.executable, "-c", _VERSIONS, json.dumps(sorted(tops))], env=env, capture_output=True, text=True, check=True)
+    return json.loads(p.stdout)
+
+
+def _children_cpu() -> float:
+    """CPU seconds (user + system) of this process's waited-for children so far."""
+    import resource
+
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return ru.ru_utime + ru.ru_stime
+
+
+def main_startup(args):
+    """``--startup``: the import of proleg split per package (see the module docstring)."""
+    import statistics
+
+    if args.out.endswith("compile_cache.md"):
+        args.out = args.out[: -len("compile_cache.md")] + "startup.md"
+    base = dict(os.environ)
+    base.pop("PYTHONDONTWRITEBYTECODE", None)  # an installed package has its bytecode compiled
+    sources = [("this checkout", None)] + [(f"PYTHONPATH {d}", d) for d in args.src]
+    reps = args.repeat if args.repeat else 5
+    for _, d in sources:  # one import first fills __pycache__
+        subprocess.run([sys.executable, "-c", "import proleg"], env=dict(base, **({"PYTHONPATH": d} if d else {})), check=True, capture_output=True)
+    runs = {s: {"wall": [], "cpu": [], "modules": []} for s, _ in sources}
+    for i in range(reps):
+        for source, d in sources:  # interleaved: the same load for every source
+            env = dict(base, **({"PYTHONPATH": d} if d else {}))
+            log(f"startup ({source}) {i + 1}/{reps} ...")
+            t0, c0 = time.perf_counter(), _children_cpu()
+            subprocess.run([sys.executable, "-c", "import proleg"], env=env, check=True, capture_output=True)
+            runs[source]["wall"].append(time.perf_counter() - t0)
+            runs[source]["cpu"].append(_children_cpu() - c0)
+            p = subprocess.run([sys.executable, "-X", "importtime", "-c", "import proleg"], env=env, check=True, capture_output=True, text=True)
+            runs[source]["modules"].append(parse_importtime(p.stderr))
+    rows, notes = [], []
+    for source, d in sources:
+        r = runs[source]
+        per_pkg = [package_times(m) for m in r["modules"]]
+        total = statistics.median(m.get("proleg", (0.0, 0.0))[1] for m in r["modules"])
+        wall = statistics.median(r["wall"])
+
+        def pkg(k):  # median over the processes of the package's summed self time
+            return statistics.median(sum(p.get(k, {}).values()) for p in per_pkg)
+
+        def slowest(k):  # the package's module of largest median self time, and that time
+            mods = {mod for p in per_pkg for mod in p.get(k, {})}
+            med = {mod: statistics.median(p.get(k, {}).get(mod, 0.0) for p in per_pkg) for mod in mods}
+            mod = max(med, key=med.get)
+            return mod, med[mod]
+
+        tops = sorted({k for p in per_pkg for k in p}, key=lambda k: -pkg(k))
+        version = distributions(tops[: args.top], dict(base, **({"PYTHONPATH": d} if d else {})))
+        rows.append({"source": source, "package": "python -c 'import proleg' (process wall)", "version": "",
+                     "self [s]": wall, "share": "", "slowest module": "", "module self [s]": "",
+                     "runs": f"{reps}: {min(r['wall']):.2f}–{max(r['wall']):.2f}"})
+        rows.append({"source": source, "package": "python -c 'import proleg' (process CPU)", "version": "",
+                     "self [s]": statistics.median(r["cpu"]), "share": "", "slowest module": "", "module self [s]": "",
+                     "runs": f"{reps}: {min(r['cpu']):.2f}–{max(r['cpu']):.2f}"})
+        rows.append({"source": source, "package": "import proleg (-X importtime, cumulative)", "version": "",
+                     "self [s]": total, "share": "100 %", "slowest module": "", "module self [s]": "", "runs": str(reps)})
+        for k in tops[: args.top]:
+            mod, mod_s = slowest(k)
+            rows.append({"source": source, "package": k, "version": version.get(k, ""), "self [s]": pkg(k),
+                         "share": f"{100 * pkg(k) / total:.0f} %" if total else "", "slowest module": mod,
+                         "module self [s]": mod_s, "runs": str(sum(k in p for p in per_pkg))})
+        names = ", ".join(f"{k} {pkg(k):.2f} s" for k in tops[:3])
+        notes.append(f"{source}: `import proleg` {total:.2f} s under -X importtime ({wall:.2f} s process wall, median of {reps}); "
+                     f"slowest packages: {names}.")
+    notes.insert(0, "self [s] = the median over the processes of the package's modules' own import times summed (-X importtime's "
+                    "'self' column, children excluded), so the rows add up to the cumulative import; slowest module = the "
+                    "package's module of largest median self time. The process wall adds the interpreter's start and exit and "
+                    "has no importtime overhead. Process CPU = that process's user + system time (all threads): it varies least "
+                    "with other jobs' load. The rest are wall times: on a loaded machine compare the rows of one run, not runs.")
+    emit(args, "Start-up: the slowest imports of `import proleg`", rows,
+         ["source", "package", "version", "self [s]", "share", "slowest module", "module self [s]", "runs"],
+         {"processes": reps, "packages shown": args.top}, notes)
+
+
 COLUMNS = [
     "mode", "process", "cache dir", "process [s]", "import [s]", "assemble [s]", "first simulate [s]",
     "second simulate [s]", "compile [s]", "first cpu [s]", "xla [s]", "executables", "cache hits", "cache misses",
@@ -229,13 +363,17 @@ def main(argv=None):
     ap.add_argument("--modes", nargs="+", choices=["fresh", "none", "default", "jax-env"], default=["fresh", "none"])
     ap.add_argument("--table", action="store_true", help="time from import to the DataFrame (issue 20) instead")
     ap.add_argument("--models", nargs="+", choices=["readme", "chain7", "hyq"], default=["readme", "chain7", "hyq"])
-    ap.add_argument("--src", nargs="*", default=[], help="--table: also run the children with PYTHONPATH=DIR (another checkout's src/, "
+    ap.add_argument("--startup", action="store_true", help="the slowest imports of `import proleg` (-X importtime), to bench/results/startup.md")
+    ap.add_argument("--top", type=int, default=12, help="--startup: packages listed per source (default 12)")
+    ap.add_argument("--src", nargs="*", default=[], help="--table, --startup: also run the children with PYTHONPATH=DIR (another checkout's src/, "
                     "e.g. a worktree of an older commit), interleaved with this checkout's runs, for a before/after table")
     add_output_args(ap, "compile_cache")
     ap.set_defaults(repeat=None)  # --table: cold/warm pairs per model, the median reported (default 5)
     args = ap.parse_args(argv)
     if args.table:
         return main_table(args)
+    if args.startup:
+        return main_startup(args)
 
     rows = []
     for mode in args.modes:
