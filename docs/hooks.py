@@ -4,12 +4,16 @@
   ``::: module`` block listing the names the module re-exports (its ``from .x import Name as Name``
   lines), so the reference follows the curated public API without a hand-kept list.
 - Performance: ``<!-- bench: NAME -->`` in a page is replaced by the committed summary table
-  ``bench/results/NAME`` (its title, settings and notes; the machine line is reduced to the date,
-  commit and load, the machine being stated once on the page), ``<!-- bench-plot: accuracy -->``
-  by a work-precision plot drawn from ``bench/results/accuracy.json``.
+  ``bench/results/NAME`` (.md, .csv or .json; several .json names with the same columns make one
+  table): its title, settings, table and notes, and a line naming the file with the date and
+  commit of the run. The machine is stated once on the page; a table measured on another one
+  (the GPU host) names it in that line. Adding a table to a page is one such line.
+  ``<!-- bench-plot: accuracy -->`` is a work-precision plot drawn from
+  ``bench/results/accuracy.json``.
 - Papers: ``<!-- scenario: NAME -->`` is replaced by the tables the scenario's report wrote,
   collected into ``docs/papers/tables/NAME/`` by ``docs/papers/collect.py`` (a scenario runs for
   minutes, too long for a docs build: the tables are committed with the date and commit of the run);
+  ``<!-- scenario-walls: all -->`` by the wall time of each of those runs (Performance);
   ``<!-- sources: MODULE -->`` by the parameter-source table ``proleg.robots.MODULE.sources()``,
   computed at build (pure Python, no simulation).
 
@@ -70,11 +74,73 @@ def reference_markdown(module: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-# -- bench tables -------------------------------------------------------------------------------
+# -- bench tables ---------------------------------------------------------------------------------
 _HEADER = re.compile(r"^(\d{4}-\d\d-\d\d)[ \d:]*— (.*)$")
+#: the machine the Performance page states once; a table measured elsewhere names its own
+PAGE_MACHINE = re.compile(r"\(2 cores(, [12] used)?\)")
+OTHER_BACKEND = re.compile(r"JAX [\d.]+ \((?!cpu\))\w+\)")
+
+
+def _provenance(name: str, date: str, header: str) -> str:
+    """The line under a table: its file, the date and commit of the run, and the machine only when
+    it is not the one the page states (a GPU host, another core count)."""
+    git = re.search(r"git ([0-9a-f]{7,})", header)
+    machine = ""
+    if not PAGE_MACHINE.search(header) or OTHER_BACKEND.search(header):
+        cpu = re.match(r"(.*?) \((\d+) cores(?:, (\d+) used)?\)", header)
+        jax = re.search(r"JAX ([\d.]+)(?: \((\w+)\))?", header)
+        parts = [f"{cpu.group(1)}, {cpu.group(3) or cpu.group(2)} of {cpu.group(2)} cores" if cpu else "",
+                 (f"JAX {jax.group(1)}" + (f" ({jax.group(2)})" if jax.group(2) else "")) if jax else ""]
+        machine = "".join(f", {x}" for x in parts if x)
+    return f"<small>bench/results/{name}: {date}" + (f", commit {git.group(1)}" if git else "") + f"{machine}</small>"
+
+
+def _json_header(doc: dict) -> str:
+    """An emit() JSON's machine as the one-line header its .md carries."""
+    m = doc.get("machine", {})
+    return (f"{m.get('cpu')} ({m.get('cpu_count')} cores, {m.get('cores_used', m.get('cpu_count'))} used), "
+            f"JAX {m.get('jax')} ({m.get('jax_backend')}), proleg (git {m.get('git')})")
+
+
+def _cell(v) -> str:
+    if isinstance(v, float):
+        if v != v:
+            return ""
+        return f"{v:,.0f}" if abs(v) >= 1000 else f"{v:.4g}"
+    if isinstance(v, int) and not isinstance(v, bool):
+        return f"{v:,}"
+    return "" if v is None else str(v).replace("|", "\\|")
+
+
+def bench_json_markdown(names: list[str]) -> str:
+    """One table from the rows of one or more bench JSON files (``common.emit``'s format; their
+    columns are those of the first), the title and notes of the first, each file's provenance."""
+    docs = []
+    for name in names:
+        path = BENCH / name
+        if not path.exists():
+            raise FileNotFoundError(f"docs: bench/results/{name} is not in the repository; run its bench script and commit the summary")
+        docs.append((name, json.loads(path.read_text())))
+    cols = docs[0][1]["columns"]
+    out = ["### " + re.sub(r" \(issue \d+\)", "", docs[0][1]["title"]), "",
+           "| " + " | ".join(cols) + " |", "|" + "|".join("---" if k == 0 else "---:" for k in range(len(cols))) + "|"]
+    for _, doc in docs:
+        out += ["| " + " | ".join(_cell(r.get(c)) for c in cols) + " |" for r in doc["rows"]]
+    out.append("")
+    if len(docs) == 1:
+        out += [f"- {n}" for n in docs[0][1].get("notes", [])]
+    out += ["", "<br>".join(_provenance(n, d.get("date", "")[:10], _json_header(d)) for n, d in docs)]
+    return "\n".join(out) + "\n"
 
 
 def bench_markdown(name: str) -> str:
+    """``<!-- bench: NAME [NAME ...] -->``: a committed bench summary as a page section. NAME.md
+    (``common.emit``'s markdown, or a hand-made summary in the same shape: a ``# title``, the
+    run's line, tables and notes), NAME.csv (a plain table) or NAME.json (``emit``'s JSON; several
+    JSON files with the same columns become one table)."""
+    names = name.split()
+    if len(names) > 1 or names[0].endswith(".json"):
+        return bench_json_markdown(names)
     path = BENCH / name
     if not path.exists():
         raise FileNotFoundError(f"docs: bench/results/{name} is not in the repository; run its bench script and commit the summary")
@@ -83,18 +149,17 @@ def bench_markdown(name: str) -> str:
         out = ["| " + " | ".join(rows[0]) + " |", "|" + "---:|" * len(rows[0])]
         out += ["| " + " | ".join(_fmt(c) for c in r) + " |" for r in rows[1:]]
         return "\n".join(out) + f"\n\n<small>bench/results/{name}</small>\n"
-    out, note = [], ""
+    out, note, fenced = [], f"<small>bench/results/{name}</small>", False
     for line in path.read_text().splitlines():
-        if line.startswith("# "):
-            out.append("### " + re.sub(r" \(issue \d+\)", "", line[2:]))
+        if line.startswith("```"):
+            fenced = not fenced
+        h = None if fenced else re.match(r"^(#+) (.*)$", line)
+        if h:  # the file's headings sit two levels below the page's sections
+            out.append("#" * min(len(h.group(1)) + 2, 6) + " " + re.sub(r" \(issue \d+\)", "", h.group(2)))
             continue
         m = _HEADER.match(line)
         if m:
-            git = re.search(r"git ([0-9a-f]{7,})", m.group(2))
-            load = re.search(r"load average \(1 min\) at the end ([\d.]+)", m.group(2))
-            note = (f"<small>bench/results/{name}: measured {m.group(1)}"
-                    + (f", commit {git.group(1)}" if git else "")
-                    + (f", load average {float(load.group(1)):.1f} at the end" if load else "") + "</small>")
+            note = _provenance(name, m.group(1), m.group(2))
             continue
         out.append(line)
     return "\n".join(out).strip() + "\n\n" + note + "\n"
@@ -157,6 +222,23 @@ def scenario_markdown(name: str) -> str:
     return "\n".join(out)
 
 
+def scenario_walls_markdown() -> str:
+    """Wall time of each scenario run whose tables the papers' pages show (docs/papers/tables/*/
+    meta.json, written by collect.py), with the load it ran under."""
+    metas = [json.loads(p.read_text()) for p in sorted(TABLES.glob("*/meta.json"))]
+    metas = [m for m in metas if m.get("wall_s")]
+    out = ["| scenario | wall with compilation | load average (1 min) at the end |", "|---|---:|---:|"]
+    for m in metas:
+        w = m["wall_s"]
+        wall = f"{w:.0f} s" if w < 90 else f"{int(w // 60)} min {w % 60:02.0f} s"
+        load = m.get("load_1min")
+        out.append(f"| `proleg run {m['scenario']}` | {wall} | {'' if load is None else f'{load:.1f}'} |")
+    dates = sorted(m["date"] for m in metas)
+    when = dates[0] if dates[0] == dates[-1] else f"{dates[0]} to {dates[-1]}"
+    return ("\n".join(out) + f"\n\n<small>docs/papers/tables/*/meta.json: the runs the papers' pages show, {when}, each "
+            f"with its commit there; a scenario's note in its meta.json says when a run was resumed</small>\n")
+
+
 def sources_markdown(module: str) -> str:
     import importlib
 
@@ -174,7 +256,7 @@ def sources_markdown(module: str) -> str:
 
 
 # -- hooks --------------------------------------------------------------------------------------
-_PLACEHOLDER = re.compile(r"<!-- (bench|bench-plot|scenario|sources): ([\w.\-]+) -->")
+_PLACEHOLDER = re.compile(r"<!-- (bench|bench-plot|scenario-walls|scenario|sources): ([\w.\-]+(?: [\w.\-]+)*) -->")
 
 
 def on_files(files, config):
@@ -198,6 +280,8 @@ def on_page_markdown(markdown, page, config, files):
             return bench_markdown(arg)
         if kind == "bench-plot":
             return accuracy_plot()
+        if kind == "scenario-walls":
+            return scenario_walls_markdown()
         if kind == "scenario":
             return scenario_markdown(arg)
         return sources_markdown(arg)
