@@ -6,15 +6,22 @@ model's structure is shared, so there is one compilation) and returns a :class:`
 ordinary :class:`~proleg.analyses.result.Result` (every output accessor), and ``res.to_frame()``
 a long pandas table with the swept values beside each variant's outputs.
 
+The method is :func:`proleg.simulate`'s: with no integrator named, the one ``simulate`` would
+choose for the model and the run (:func:`batch_integrator`, the same chooser), so ``res[i]`` is
+``simulate(system.with_params(row_i))`` to round-off: the same method, steps and tolerances.
+``res.integrator`` and ``res.integrator_reason`` say which and why; ``res.integrator_note`` is
+set (and a warning issued) where the batch had to run another method.
+
 Speed on the CPU. proleg turns XLA-CPU's YNNPACK fusions off at import
 (``proleg.XLA_CPU_DEFAULTS``): under ``vmap`` the small 3×3 products of the element code become
 batched dots that YNNPACK runs lane by lane (1–2 ms per fusion for 1,000 lanes); the plain XLA
 loops are ~3× faster per lane-step on the bench model (bench/vmap_batch.py). Batches run
 concurrently, up to one fewer than the cores (``workers``, :func:`max_concurrent_batches`: a
 batched LAPACK call needs a free thread of XLA's pool), each factoring its Newton matrices
-lane by lane (``GeneralizedAlpha(lu_per_lane=True)``). Each variant steps through its output times on its own
-(``RunOptions(free_running=True)``), but the batch's loop runs until the slowest variant is done:
-variants with very different step counts waste work, so group them.
+lane by lane (``GeneralizedAlpha(lu_per_lane=True)``, for the α-methods). Each variant steps
+through its output times on its own (``RunOptions(free_running=True)``; Diffrax's pairs always
+do), but the batch's loop runs until the slowest variant is done: variants with very different
+step counts waste work, so group them.
 On a GPU the same call runs every variant in parallel (bench/gpu_batch.py).
 """
 
@@ -29,10 +36,10 @@ import numpy as np
 
 from ..assembly.system import System
 from .. import sigint
-from ..errors import ModelError, Status
+from ..errors import ModelError, ProlegWarning, Status
 from .checks import check_simulate, check_sweep_values
 from .result import Result
-from ..solvers.galpha import GeneralizedAlpha
+from ..solvers.galpha import AbstractAlphaIntegrator, GeneralizedAlpha
 from .simulate import RunOptions, simulate, simulate_kwargs
 from ..compile_cache import compile_lowered, xla_options
 
@@ -92,7 +99,9 @@ class SweepResult:
     ``variants``: each row's index in the sweep (all of them, unless it was interrupted);
     ``fail_time`` [s] (NaN for the variants that did not fail); ``stats``: {"steps", "rejected",
     "newton_iterations", "jacobians"} arrays (n_variants,). ``wall_time`` [s] of the batch run
-    and ``compile_time`` [s] of its compilation.
+    and ``compile_time`` [s] of its compilation. ``integrator``: the method every variant ran,
+    ``integrator_reason``: why (as ``result.stats["integrator_reason"]`` of simulate),
+    ``integrator_note``: None, or why it is not the method simulate would run.
     """
 
     def __init__(self, system, values, t, q, v, w, z, status, fail_time, stats, integrator, coordinates):
@@ -103,6 +112,7 @@ class SweepResult:
         st = np.asarray(stats)
         self.stats = {k: st[:, i] for i, k in enumerate(("steps", "rejected", "newton_iterations", "jacobians"))}
         self.integrator, self.coordinates = integrator, coordinates
+        self.integrator_reason = self.integrator_note = None  # set by sweep (batch_integrator)
         self.wall_time = self.compile_time = None
         self.apply = System.with_params  # how a variant's values become its System (sweep's apply)
 
@@ -188,8 +198,9 @@ def sweep(
     :func:`max_concurrent_batches` at once, one fewer than the cores, so 1 on 2 cores); with
     ``batch_size`` unset the variants are split into ``workers`` equal batches of at most
     ``CPU_BATCH_CAP`` (256) variants on the CPU, ``ACCEL_BATCH_CAP`` (25,000) on a GPU
-    (:func:`default_batch_size`). Other keywords go to :func:`proleg.simulate` (tolerances,
-    ``fixed_step``, ``coordinates``, ...). A variant that fails is reported in
+    (:func:`default_batch_size`). Other keywords go to :func:`proleg.simulate` (``integrator``,
+    tolerances, ``fixed_step``, ``coordinates``, ...); with no integrator named the batch runs
+    the method ``simulate`` would choose (:func:`batch_integrator`). A variant that fails is reported in
     ``status`` with the time it stopped; the others are unaffected. ``apply(system, values)``
     (traceable; default ``System.with_params``) maps a variant's values to its System, for
     parameters that are functions of the swept ones (proleg.study uses it).
@@ -222,12 +233,10 @@ def sweep(
     meta = {}
 
     run_kw = simulate_kwargs(simulate_kw)
-    # No integrator named: generalized-alpha, whose batched loop lets each variant run free
-    # (free_running); simulate's integrator="auto" applies to single runs (solvers/auto.py).
-    integ = run_kw.get("integrator")
-    if integ is None or type(integ).__name__ == "Auto":
-        integ = GeneralizedAlpha(**(integ.given() if integ is not None else {}))
-    run_kw["integrator"] = dataclasses.replace(integ, lu_per_lane=concurrent)
+    integ, why, note = batch_integrator(system, t_end, dt_output, run_kw)
+    if isinstance(integ, AbstractAlphaIntegrator):  # the only methods with a batched LU to factor lane by lane
+        integ = dataclasses.replace(integ, lu_per_lane=concurrent)
+    run_kw["integrator"] = integ
     run_kw["run"] = dataclasses.replace(run_kw.get("run") or RunOptions(), chunk=1_000_000, free_running=True)
 
     def one(vals):
@@ -279,6 +288,7 @@ def sweep(
         res = _assemble_result(system, {k: v[idx] for k, v in values.items()}, [done[b] for b in batches], meta, apply)
         if res is not None:  # None when no batch finished
             res.variants = idx
+            res.integrator_reason, res.integrator_note = why, note
         from ..errors import Interrupted
 
         raise Interrupted(
@@ -287,7 +297,59 @@ def sweep(
         ) from None
     res = _assemble_result(system, values, [done[b] for b in range(n_batches)], meta, apply)
     res.wall_time, res.compile_time = time.perf_counter() - t0, t_compile
+    res.integrator_reason, res.integrator_note = why, note
     return res
+
+
+def batch_integrator(system: System, t_end: float, dt_output: float | None, run_kw: dict):
+    """(integrator, reason, note): the method a batch of ``system``'s variants runs.
+
+    The one :func:`proleg.simulate` runs for ``simulate(system.with_params(row), t_end,
+    dt_output, **run_kw)``, chosen by the same chooser (:meth:`proleg.Auto.choose`, from the
+    model and the run's length) when none is named, so that every row of a sweep or study is
+    the answer ``simulate`` gives for that row: the same method, steps and tolerances. The
+    α-methods, Radau5 and Diffrax's pairs all run under ``jax.vmap``. An integrator class that
+    declares ``batches = False`` cannot: its batch runs ``GeneralizedAlpha`` with the same
+    tolerances instead, ``note`` says so (None otherwise) and a warning is issued, never
+    silently. ``reason`` is why the method was chosen (``result.stats["integrator_reason"]``
+    of ``simulate``)."""
+    import warnings
+
+    from ..solvers.auto import Auto
+    from ..solvers.base import AbstractIntegrator
+
+    integ = run_kw.get("integrator")
+    if integ is None or (isinstance(integ, str) and integ == "auto"):
+        integ = Auto()
+    if isinstance(integ, Auto):
+        ig, why = integ.choose(system, _run_span(t_end, dt_output, run_kw), run_kw.get("coordinates", "auto"))
+    elif isinstance(integ, AbstractIntegrator):
+        ig, why = integ, "named by the caller"
+    else:  # not an integrator: simulate's own check names it
+        return integ, "", None
+    if getattr(ig, "batches", True):
+        return ig, why, None
+    keep = {k: getattr(ig, k) for k in ("rtol", "atol", "dt_max", "fixed_step") if getattr(ig, k, None) is not None}
+    alt = GeneralizedAlpha(**keep)
+    note = (f"{type(ig).__name__} ({why}) cannot run variants in a vmap batch; this batch runs {alt.describe()} instead, "
+            f"so its rows differ from simulate() by that method's error. Name a method that batches "
+            f"(integrator=proleg.GeneralizedAlpha(), proleg.Tsit5(), ...) to choose it yourself.")
+    warnings.warn(f"sweep of '{system.topo.name}': {note}", ProlegWarning, stacklevel=3)
+    return alt, why, note
+
+
+def _run_span(t_end: float, dt_output: float | None, run_kw: dict) -> float:
+    """The run's length [s] as :func:`proleg.simulate` measures it for its choice of method:
+    from the start (``t0``, or the first output time where only ``output_times`` are given) to
+    the last output time."""
+    from .simulate import SaveAt
+
+    saveat = run_kw.get("saveat") or SaveAt(dt=dt_output, times=run_kw.get("output_times"))
+    t0 = float(run_kw.get("t0", 0.0))
+    times = saveat.output_times(t0, t_end)
+    if saveat.times is not None and t0 == 0.0 and times[0] > 0:
+        t0 = float(times[0])
+    return float(times[-1]) - t0
 
 
 def _assemble_result(system, values, parts, meta, apply):

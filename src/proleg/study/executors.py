@@ -19,12 +19,15 @@ import socket
 import threading
 import time
 import uuid
+import warnings
 
 import numpy as np
 
 from ..errors import ModelError, Status
 
 DEFAULT_TIMEOUT_S = 10.0  # connecting to a scheduler address
+#: the start of :func:`proleg.analyses.sweep.batch_integrator`'s warning (regular expression)
+SUBSTITUTED = r"sweep of .*cannot run variants in a vmap batch"
 
 
 def default_executor(kind: str, backend: str | None = None) -> str:
@@ -213,7 +216,9 @@ def evaluate_batch(job: Job, rows: list[tuple[str, dict]], *, workers: int = 1, 
             params = {k: np.stack([np.asarray(m[1][k], float) for m in members]) for k in job.names}
         try:
             lanes = job.lanes or batch_size
-            res = sweep(base, params, workers=workers, batch_size=lanes, apply=job.apply, **job.simulate_kw)
+            with warnings.catch_warnings():  # a substituted method: in the rows, and warned by the study's driver
+                warnings.filterwarnings("ignore", message=SUBSTITUTED)
+                res = sweep(base, params, workers=workers, batch_size=lanes, apply=job.apply, **job.simulate_kw)
             err = None
         except Exception as exc:  # the whole group failed (compilation, bad options): rows say why
             res, err = None, f"{type(exc).__name__}: {exc}"
@@ -226,12 +231,16 @@ def evaluate_batch(job: Job, rows: list[tuple[str, dict]], *, workers: int = 1, 
                 vals_out, status, reason = _outputs_of(job, res, i)
                 row.update(vals_out, status=status, reason=reason)
                 row.update(steps=int(res.stats["steps"][i]), newton_iterations=int(res.stats["newton_iterations"][i]),
-                           fail_time=float(res.fail_time[i]))
+                           fail_time=float(res.fail_time[i]), integrator=res.integrator.describe(),
+                           integrator_note=res.integrator_note or "")
             out[key] = row
     wall = time.perf_counter() - t0
     rows_out = [out[key] for key, _ in rows]
     for r in rows_out:
-        r["wall_s"] = wall / max(1, len(rows))  # the batch's wall time (compilation included) per variant
+        r["wall_s"] = wall / max(1, len(rows))  # this call's wall time (builds, traces, compilation, run) per design
+        r["batch_wall_s"] = wall
+        r.setdefault("integrator", "")
+        r.setdefault("integrator_note", "")
         r.setdefault("steps", 0)
         r.setdefault("newton_iterations", 0)
         r.setdefault("fail_time", math.nan)
@@ -252,7 +261,8 @@ def _evaluate_functions(job: Job, rows, batch, worker) -> list[dict]:
         else:
             vals_out, status, reason = _extract(job, value)
             row.update(vals_out, status=status, reason=reason)
-        row.update(wall_s=time.perf_counter() - t0, steps=0, newton_iterations=0, fail_time=math.nan, finished_at=time.time())
+        wall = time.perf_counter() - t0
+        row.update(wall_s=wall, batch_wall_s=wall, steps=0, newton_iterations=0, fail_time=math.nan, finished_at=time.time())
         out.append(row)
     return out
 
@@ -292,12 +302,117 @@ def _init_worker(cache_dir: str | None, workers: int) -> None:
 # drivers: each yields the rows of each finished batch
 # ------------------------------------------------------------------------------------------
 def run_vmap(job, batches, *, workers):
-    """In this process: ``workers`` batches at a time through one :func:`sweep` call."""
+    """In this process: ``workers`` batches at a time through one :func:`sweep` call (its
+    concurrent batches). Each batch keeps its own ``batch`` id, so a batch is ``batch_size``
+    rows whatever ``workers`` is; ``batch_wall_s`` is the wall time of the call, shared by the
+    batches it ran together."""
     for g in range(0, len(batches), workers):
         group = batches[g : g + workers]
         bs = max(len(b) for b in group)
         rows = [r for b in group for r in b]
-        yield evaluate_batch(job, rows, workers=min(workers, len(group)), batch_size=bs)
+        out = evaluate_batch(job, rows, workers=min(workers, len(group)), batch_size=bs)
+        if len(group) > 1:
+            i = 0
+            for b in group:
+                bid = uuid.uuid4().hex[:12]
+                for r in out[i : i + len(b)]:
+                    r["batch"] = bid
+                i += len(b)
+        yield out
+
+
+#: Exit code of a spawned worker that, starting, ran the user's script again up to a study's
+#: worker pool (sysexits' EX_CONFIG): the driver then raises :func:`main_guard_error` at once.
+BOOTSTRAP_EXIT = 78
+
+
+def main_guard_error(where: str | None = None) -> ModelError:
+    """The error for a script whose study starts worker processes from its top level, without
+    ``if __name__ == "__main__":`` (``where``: its file and line, where known)."""
+    at = f" ({where})" if where else ""
+    return ModelError(
+        "Study: the worker processes start with 'spawn', which runs your script again in each worker; the study's run"
+        f"{at} is not under `if __name__ == \"__main__\":`, so every worker would start the study again, and Python stops "
+        "it ('An attempt has been made to start a new process before the current process has finished its bootstrapping "
+        "phase'). Put the call under `if __name__ == \"__main__\":` (building the model may stay above it), or pass "
+        "executor=\"vmap\" or \"local\" to run the study in this process."
+    )
+
+
+def spawn_reruns_main() -> str | None:
+    """The file a spawned worker runs again as its main module (the script this process was
+    started with), or None when it runs none (an interactive session, ``python -c``, Jupyter,
+    ``python -m pkg`` whose main is a ``__main__`` module): multiprocessing's own rules
+    (``multiprocessing.spawn.get_preparation_data``, ``_fixup_main_from_*``)."""
+    import multiprocessing.spawn as spawn
+    import sys
+
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    if main is None or not path:
+        return None
+    data = spawn.get_preparation_data("proleg-study")
+    name = data.get("init_main_from_name")
+    if name is not None:
+        return None if name == "__main__" or name.endswith(".__main__") else path
+    main_path = data.get("init_main_from_path")
+    if main_path is None or os.path.splitext(os.path.basename(main_path))[0] == "ipython":
+        return None
+    return path
+
+
+def unguarded_main_line() -> str | None:
+    """Where this call starts from an unguarded top-level statement of the script that spawned
+    workers would run again ("script.py, line 12"), or None.
+
+    The call stack's frame of the main module's top level is at a line; the statement of the
+    script (its syntax tree) that holds that line is what a spawned worker runs again, unless it
+    is an ``if`` on ``__name__`` (the guard). Anything not known for sure (no such frame, a file
+    that cannot be read or parsed) is None: no false alarm."""
+    import ast
+    import sys
+
+    path = spawn_reruns_main()
+    if path is None:
+        return None
+    main_globals = sys.modules["__main__"].__dict__
+    frame = sys._getframe(1)
+    while frame is not None and not (frame.f_code.co_name == "<module>" and frame.f_globals is main_globals):
+        frame = frame.f_back
+    if frame is None:
+        return None
+    line = frame.f_lineno
+    try:
+        with open(path, encoding="utf-8") as f:
+            tree = ast.parse(f.read())
+    except (OSError, SyntaxError, ValueError, UnicodeDecodeError):
+        return None
+    for stmt in tree.body:
+        if stmt.lineno <= line <= (stmt.end_lineno or stmt.lineno):
+            guarded = isinstance(stmt, ast.If) and any(isinstance(n, ast.Name) and n.id == "__name__" for n in ast.walk(stmt.test))
+            return None if guarded else f"{os.path.basename(path)}, line {line}"
+    return None
+
+
+def check_can_spawn() -> None:
+    """Before a study starts spawned workers ("processes", a Dask LocalCluster): raise
+    :func:`main_guard_error` where they could not start.
+
+    In the driver, where its script would start the study again in every worker (the
+    study runs from an unguarded top-level line, :func:`unguarded_main_line`). In a spawned
+    worker that is still starting (re-running the script: multiprocessing's ``_inheriting``)
+    and has reached a study's pool: that worker exits with :data:`BOOTSTRAP_EXIT` after
+    printing the reason, so that the driver raises the same error at once instead of
+    retrying each batch as a crashed worker."""
+    import multiprocessing as mp
+    import sys
+
+    if getattr(mp.current_process(), "_inheriting", False):
+        print(f"proleg: {main_guard_error()}", file=sys.stderr, flush=True)
+        raise SystemExit(BOOTSTRAP_EXIT)
+    where = unguarded_main_line()
+    if where is not None:
+        raise main_guard_error(where)
 
 
 _POOLS: dict = {}
@@ -499,6 +614,7 @@ def run_processes(job, batches, *, workers, max_deaths: int | None = None, max_e
 
     import cloudpickle
 
+    check_can_spawn()
     max_deaths = max_deaths or MAX_WORKER_DEATHS
     queue, suspects = deque(batches), deque()  # suspects: were in flight when a worker died; run alone
     deaths: dict = {}  # variant key -> deaths of its worker while it ran alone
@@ -544,6 +660,8 @@ def run_processes(job, batches, *, workers, max_deaths: int | None = None, max_e
                     if _POOLS.get(workers) is pool:
                         _POOLS.pop(workers, None)
                 pool.shutdown(wait=False, cancel_futures=True)
+                if f"exit code {BOOTSTRAP_EXIT}" in how:  # a worker ran the script's study again (check_can_spawn)
+                    raise main_guard_error() from None
                 if alone:
                     b = suspects.popleft()
                     if len(b) > 1:  # bisect towards the variant that kills its worker
@@ -585,6 +703,7 @@ def connect(scheduler=None, *, workers: int = 2, timeout_s: float = DEFAULT_TIME
                 f"Study: no Dask scheduler answered at '{scheduler}' within {timeout_s:g} s ({type(exc).__name__}). "
                 "Start one (`dask scheduler` and `dask worker ADDRESS`), check the address, or leave the scheduler out for a LocalCluster."
             ) from None
+    check_can_spawn()  # the LocalCluster's workers are spawned processes too
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
     return Client(cluster), True
 

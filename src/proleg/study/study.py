@@ -10,9 +10,17 @@ Example::
 
 ``table`` has one row per variant: ``key`` (hash of the parameter values), the parameters,
 the outputs, ``status`` ("success", the solver's status such as "step_too_small",
-"output_error", "build_error" or "error") with ``reason``, ``wall_s`` (the batch's wall time
-per variant [s], its compilation included), ``steps``, ``newton_iterations``, ``fail_time`` [s],
-``worker`` and ``batch``. Rerunning with the same store skips every variant already stored.
+"output_error", "build_error", "error" or "worker_died") with ``reason``, ``wall_s`` (the
+design's share of its batch's wall time [s]: the batch's time, builds and compilation
+included, divided by its designs), ``batch_wall_s`` (the batch's call [s]), ``steps``,
+``newton_iterations``, ``fail_time`` [s], ``integrator`` (the method the row ran) and
+``integrator_note``, ``worker`` and ``batch``; docs/guide/studies.md describes each. Rerunning
+with the same store skips every variant already stored.
+
+With no integrator named in ``simulate``, each row runs the method :func:`proleg.simulate`
+would choose (analyses/sweep.py ``batch_integrator``), so a row is
+``simulate(system.with_params(row))`` to round-off; a batch that must run another method says
+so (``integrator_note``, ``table.attrs["integrator_notes"]`` and a warning).
 
 A study of a plain function (an FE solve, an analytic model, anything that is not a
 simulation) is made with :meth:`Study.function`: the same designs, executors, store, resume,
@@ -30,14 +38,15 @@ import numpy as np
 import pandas as pd
 
 from ..assembly.system import System
-from ..errors import ModelError
+from ..errors import ModelError, ProlegWarning
 from . import executors as ex
 from .design import make_design
 from .space import Choice, Fixed, Space
 from .store import Store, variant_key
 
 EXECUTORS = ("vmap", "processes", "dask", "local")  # "local": in this process, one variant after another
-RESERVED = ("key", "status", "reason", "wall_s", "worker", "batch", "steps", "newton_iterations", "fail_time", "finished_at")
+RESERVED = ("key", "status", "reason", "wall_s", "batch_wall_s", "worker", "batch", "steps", "newton_iterations", "fail_time",
+            "integrator", "integrator_note", "finished_at")
 
 
 def code_hash(fn) -> str:
@@ -103,6 +112,8 @@ class Study:
                 vals = d.values if isinstance(d, Choice) else ([d.value] if isinstance(d, Fixed) else [])
                 if any(isinstance(v, str) for v in vals):
                     raise ModelError(f"Study: '{k}' has text values {list(vals)}; a System parameter takes numbers (text choices need a builder).")
+        if self.is_builder:
+            check_signature(system_or_builder, self.space, "Study")
         self.outputs = _checked_outputs(outputs, self.space, "Study", "outputs={'x_end': lambda r: r.part('lower').position[-1, 0]}",
                                         "a function of the Result")
         self.simulate = dict(simulate or {})
@@ -134,6 +145,7 @@ class Study:
         self = cls.__new__(cls)
         self.target, self.kind, self.apply, self.simulate = fn, "function", None, {}
         self.space = Space(space)
+        check_signature(fn, self.space, "Study.function")
         self.outputs = _checked_outputs(outputs, self.space, "Study.function", "outputs=['stiffness']",
                                         "a name or a function of the returned value")
         self.name = name or getattr(fn, "__name__", "study")
@@ -173,13 +185,18 @@ class Study:
             progress: bool | None = None, on_batch=None, lanes: int | None = None) -> pd.DataFrame:
         """Run the design and return its rows (one per variant, in design order).
 
-        ``executor``: "vmap", "processes" or "dask" (``scheduler``: an address such as
+        ``executor``: "vmap", "processes", "dask" (``scheduler``: an address such as
         "tcp://host:8786" or a ``distributed.Client``; default a LocalCluster of ``workers``
-        processes); None or "auto": :func:`~proleg.study.executors.default_executor` ("vmap"
-        for a System, and for a builder on a GPU; "processes" for a builder on the CPU and for a
-        function study). ``store``: a folder; what it holds is
-        not run again, what finishes is written batch by batch. ``batch_size`` variants per
-        batch (default: on the CPU the pending ones split over the workers, at most 256).
+        processes) or "local" (this process, one batch at a time); None or "auto":
+        :func:`~proleg.study.executors.default_executor` ("vmap" for a System, and for a
+        builder on a GPU; "processes" for a builder on the CPU and for a function study).
+        "processes" and a LocalCluster spawn their workers, which run the user's script again:
+        a study run from an unguarded top-level line of a script (no
+        ``if __name__ == "__main__":``) is a ModelError at once. ``store``: a folder; what it
+        holds is not run again, what finishes is written batch by batch. ``batch_size``
+        variants per batch, each batch one ``batch`` id (default: on the CPU the pending ones
+        split over the workers, at most 256). ``workers``: batches at a time (default: the
+        cores for "vmap", 2 for "processes" and "dask", 1 for "local").
         ``lanes``: variants per compiled ``vmap`` call inside a batch (default: the whole batch;
         ``lanes=1`` simulates a batch's variants one after the other, each at its own step
         sizes, which on CPU cores is the faster way when variants differ much in stiffness:
@@ -216,13 +233,15 @@ class Study:
         allrows = allrows.drop_duplicates("key", keep="first").set_index("key")
         out = allrows.loc[list(table["key"])].reset_index()
         cols = ["key", *self.space.dims, *self.outputs, "status", "reason", "wall_s"]
-        return out[cols + [c for c in out.columns if c not in cols]]
+        out = out[cols + [c for c in out.columns if c not in cols]]
+        _integrator_attrs(out, self.name)
+        return out
 
     def _execute(self, todo, executor, st, batch_size, workers, scheduler, progress, on_batch, lanes=None):
         from ..analyses.sweep import default_batch_size, default_workers
 
-        if workers is None:
-            workers = default_workers() if executor == "vmap" else 2
+        if workers is None:  # "local": one batch at a time, so that a batch is batch_size designs in one call
+            workers = default_workers() if executor == "vmap" else 1 if executor == "local" else 2
         if not isinstance(workers, int) or workers < 1:
             raise ModelError(f"Study: workers must be a positive integer (got {workers!r}).")
         bs = int(batch_size) if batch_size else default_batch_size(len(todo), workers)
@@ -287,6 +306,49 @@ class Study:
 
     def __repr__(self):
         return f"Study({self.name!r}: {list(self.space.dims)} -> {list(self.outputs)})"
+
+
+def _integrator_attrs(table: pd.DataFrame, name: str) -> None:
+    """``table.attrs["integrators"]``: {method: rows} of the simulated rows, and
+    ``table.attrs["integrator_notes"]``: why a batch ran another method than ``simulate``
+    would (:func:`proleg.analyses.sweep.batch_integrator`), each also a warning: a row that is
+    not ``simulate``'s answer is never silent."""
+    import warnings
+
+    if "integrator" not in table.columns:
+        return
+    used = table["integrator"].fillna("").astype(str)
+    table.attrs["integrators"] = {k: int(v) for k, v in used[used != ""].value_counts().items()}
+    notes = table["integrator_note"].fillna("").astype(str) if "integrator_note" in table.columns else pd.Series([], dtype=str)
+    table.attrs["integrator_notes"] = sorted(set(notes[notes != ""]))
+    for note in table.attrs["integrator_notes"]:
+        n = int((notes == note).sum())
+        warnings.warn(f"Study '{name}': {n} row(s) ran another method than simulate() would: {note}", ProlegWarning, stacklevel=4)
+
+
+def check_signature(fn, space: Space, who: str) -> None:
+    """Refuse a space that ``fn`` (a builder or a function study's function, called as
+    ``fn(**row)``) cannot take, before any variant runs: a name that is not one of its keyword
+    arguments (with the close matches), or a required argument the space does not give.
+
+    A function that takes ``**kwargs`` accepts any name: only its required named arguments are
+    checked. One without a signature Python can read (a builtin, some C extensions) is not
+    checked; its rows then say what went wrong."""
+    try:
+        sig = inspect.signature(fn)
+    except (TypeError, ValueError):
+        return
+    params = list(sig.parameters.values())
+    named = [p for p in params if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
+    label = getattr(fn, "__name__", type(fn).__name__)
+    what = f"{who}'s {'builder' if who == 'Study' else 'function'} '{label}'"
+    if not any(p.kind is p.VAR_KEYWORD for p in params):
+        space.check_names([p.name for p in named], f"{what} (its keyword arguments: {', '.join(p.name for p in named) or 'none'})")
+    missing = [p.name for p in named if p.default is p.empty and p.name not in space.dims]
+    if missing:
+        raise ModelError(f"{who}: {what} needs {', '.join(repr(m) for m in missing)}, which the space does not give; every variant "
+                         f"would fail to build. Add {'them' if len(missing) > 1 else 'it'} to the space (a fixed value, e.g. "
+                         f"{{'{missing[0]}': 0.25}}, is held for every variant) or give {'them' if len(missing) > 1 else 'it'} a default.")
 
 
 def _checked_outputs(outputs, space, who: str, example: str, what: str) -> dict:
