@@ -144,3 +144,22 @@ def test_the_reading_stops_where_no_damping_bounds(monkeypatch):
     assert "no leg damping in 16.5–55 N s/m" in out["stopped"] and "sampled at 5 values" in out["stopped"]
     assert [r["leg damping [N s/m]"] for r in out["speed_vs_damping"]] == pytest.approx(np.linspace(16.5, 55.0, 5))
     assert len(fake.calls) == 2 + 5  # the two as-printed runs and the grid, nothing after
+
+
+@pytest.mark.slow
+def test_scenario_reports_the_stop(tmp_path):
+    """The scenario end to end at reduced size (2 s runs, the range's two ends): both ends of the
+    damping range leave Model II without a bound at Table 4 (bench/results/scout2_calibration.md
+    at full size), so the report states the calibration's failure beside the as-printed runs and
+    predicts nothing."""
+    import pandas as pd
+
+    from proleg.papers.scout2_report import run_bound
+
+    path = run_bound(tmp_path, t_end=2.0, grid=2, low_speed=False, progress=False)
+    html = path.read_text()
+    assert "there is nothing to calibrate, so nothing is predicted" in html
+    sweep = pd.read_parquet(tmp_path / "speed_vs_damping.parquet")
+    assert list(sweep["leg damping [N s/m]"]) == pytest.approx([16.5, 55.0]) and (sweep["speed [m/s]"] == 0).all()
+    assert sweep.set_index("leg damping [N s/m]").loc[55.0, "stalled"]  # Table 6 as printed: the stall
+    assert not (tmp_path / "fig7_points.parquet").exists()
