@@ -201,7 +201,7 @@ def test_pin_servo_equals_pid():
         ("hip", ("hip.I", "hip.J"), D.hip_signed_lever, -30 * deg),
         ("knee", ("knee.I", "knee.J"), D.knee_signed_lever, 60 * deg),
     ):
-        m_dc.add_controller(_pin_servo(f"{side}_servo", m_dc.marker(mi), m_dc.marker(mj), 300.0, 6.0, sp, 1e-3, f"{side}_actuator", lever))
+        m_dc.add_controller(_pin_servo(m_dc, f"{side}_servo", m_dc.marker(mi), m_dc.marker(mj), 300.0, 6.0, sp, 1e-3, f"{side}_actuator", lever))
     a = T.drop_test(system=pl.assemble(m_pid), t_end=0.2).tables["channels"]
     b = T.drop_test(system=pl.assemble(m_dc), t_end=0.2).tables["channels"]
     for c in ("hip force [N]", "knee force [N]", "slider z [m]"):

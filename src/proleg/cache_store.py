@@ -32,7 +32,7 @@ VERSION = 1
 _HEAD = struct.Struct("<8sHH")  # magic, format version, key length
 _TAIL = struct.Struct("<Q32s")  # payload length, sha256 of the payload
 SUFFIX = ".entry"
-KINDS = ("export", "trail", "xla")
+KINDS = ("export", "trail", "xla", "struct")
 #: Default size cap [bytes] (PROLEG_CACHE_MAX_BYTES): a few hundred models' executables.
 DEFAULT_MAX_BYTES = 2 * 1024**3
 #: After an eviction the store holds at most this fraction of the cap, so that the next writes

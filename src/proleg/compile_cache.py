@@ -155,7 +155,7 @@ def jit(fn=None, *, xla: str = "once", static_argnums=()):
     return CachedJit(fn, static_argnums, xla, disk=False)
 
 
-stats = {"exported": 0, "loaded": 0, "unkeyed": 0, "prefetched": 0}
+stats = {"exported": 0, "loaded": 0, "unkeyed": 0, "prefetched": 0, "shared": 0, "verified": 0}
 
 
 def cache_dir() -> str | None:
@@ -227,10 +227,16 @@ def _stable_module(modname) -> bool:
 class _Hasher:
     """Deterministic structural hash of static data and user code (see the module docstring)."""
 
-    def __init__(self):
+    def __init__(self, structural: bool = False):
         self.h = hashlib.sha256()
-        self.seen: dict[int, int] = {}  # id → visit index (cycles and shared objects)
+        self.seen: dict[tuple, int] = {}  # (id, abstract) → visit index (cycles and shared objects)
         self.keep = []  # keep visited objects alive so ids stay unique
+        # Structural mode (:func:`structure_fingerprint`): inside an object whose class sets
+        # ``_numbers_are_data`` (a System's Topology, a coordinate set's static data), floats and
+        # float arrays are hashed by type and shape only; what :func:`perturbed` does not descend
+        # into (code, closures, sets, ``_fingerprint_state`` objects) stays exact.
+        self.structural = structural
+        self.abstract = False
 
     def put(self, *parts):
         for p in parts:
@@ -239,13 +245,32 @@ class _Hasher:
             self.h.update(b)
 
     def visit(self, x):  # noqa: C901 (one dispatch table)
+        if self.abstract:
+            if not _descends(x):  # what perturbed() leaves as it is must be hashed exactly
+                self.abstract = False
+                try:
+                    self.visit(x)
+                finally:
+                    self.abstract = True
+                return
+            if isinstance(x, (float, complex, np.floating, np.complexfloating)):
+                self.put("number", type(x).__name__)
+                return
         if x is None or isinstance(x, (bool, int, float, complex, str, bytes)):
             self.put(type(x).__name__, repr(x))
             return
         if isinstance(x, enum.Enum):
             self.put("enum", type(x).__module__, type(x).__qualname__, x.name)
             return
-        k = id(x)
+        if self.structural and not self.abstract and getattr(type(x), "_numbers_are_data", False):
+            self.put("structure-of")
+            self.abstract = True
+            try:
+                self.visit(x)
+            finally:
+                self.abstract = False
+            return
+        k = (id(x), self.abstract)
         if k in self.seen:
             self.put("ref", self.seen[k])
             return
@@ -260,6 +285,8 @@ class _Hasher:
             self.put("npscalar", x.dtype.str, x.tobytes())
         elif isinstance(x, np.ndarray):
             self.put("ndarray", x.dtype.str, x.shape)
+            if self.abstract and x.dtype.kind in "fc":
+                return  # a float array of a topology: its numbers are data (structure_fingerprint)
             if x.dtype.hasobject:
                 for e in x.ravel():
                     self.visit(e)
@@ -280,7 +307,7 @@ class _Hasher:
             if type(x) is not dict:
                 self.visit_type(type(x))
             for kk, v in x.items():
-                self.visit(kk)
+                self.visit_exact(kk)  # keys are not perturbed
                 self.visit(v)
         elif isinstance(x, (set, frozenset)):
             subs = sorted(fingerprint(e) for e in x)
@@ -331,15 +358,22 @@ class _Hasher:
         else:
             raise Unkeyable(f"object of type {type(x).__module__}.{type(x).__qualname__}")
 
+    def visit_exact(self, x):
+        abstract, self.abstract = self.abstract, False
+        try:
+            self.visit(x)
+        finally:
+            self.abstract = abstract
+
     def visit_type(self, t: type):
         mod = t.__module__
         self.put("type", mod, t.__qualname__)
         if mod.split(".")[0] == "proleg" or _stable_module(mod) or mod == "builtins":
             return
-        if id(t) in self.seen:
-            self.put("ref", self.seen[id(t)])
+        if (id(t), "type") in self.seen:
+            self.put("ref", self.seen[(id(t), "type")])
             return
-        self.seen[id(t)] = len(self.seen)
+        self.seen[(id(t), "type")] = len(self.seen)
         self.keep.append(t)
         for b in t.__mro__[1:]:
             self.visit_type(b)
@@ -361,8 +395,14 @@ class _Hasher:
     def visit_object(self, x):
         self.visit_type(type(x))
         d = getattr(x, "__dict__", None)
+        fixed = getattr(type(x), "_structure_fields", ()) if self.abstract else ()
         if d is not None:
-            self.visit({k: v for k, v in d.items()})
+            if self.abstract:  # the fields a trace never reads (a builder's notes): not structure
+                d = {k: v for k, v in d.items() if _traced_field(type(x), k)}
+            self.visit({k: v for k, v in d.items() if not k.startswith("_digest") and k not in fixed})
+            for k in fixed:  # numbers that are structure (a one-hot selector, a sign): exact
+                self.put("structure field", k)
+                self.visit_exact(d.get(k))
         for cls in type(x).__mro__:
             for s in cls.__dict__.get("__slots__", ()):
                 if s in ("__dict__", "__weakref__"):
@@ -408,6 +448,169 @@ class _Hasher:
             self.visit(aux)
         for ch in td.children():
             self.visit_treedef(ch)
+
+
+def _descends(x) -> bool:
+    """Whether :func:`perturbed` looks inside ``x`` (numbers, containers, arrays, plain objects);
+    anything else (code, closures, types, modules, sets, enums, objects with a
+    ``_fingerprint_state``) is kept as it is, so the structural hash keeps it exact."""
+    if x is None or isinstance(x, (bool, int, str, bytes, np.integer, np.bool_, enum.Enum)):
+        return False
+    if isinstance(x, (float, complex, np.floating, np.complexfloating, list, tuple, dict, np.ndarray)):
+        return True
+    if isinstance(x, jax.Array):
+        return not isinstance(x, jax.core.Tracer)
+    if isinstance(x, (types.MethodType, functools.partial)):
+        return True
+    if hasattr(type(x), "_fingerprint_state") or getattr(type(x), "_numbers_are_structure", False) or isinstance(x, (
+        type, types.ModuleType, types.FunctionType, types.CodeType, types.BuiltinFunctionType, np.ufunc,
+        CachedJit, set, frozenset, np.dtype, re.Pattern, slice, range, jax.tree_util.PyTreeDef,
+        jax.ShapeDtypeStruct,
+    )):
+        return False
+    if callable(x) and hasattr(x, "__wrapped__") and hasattr(x, "lower"):  # jax.jit objects
+        return False
+    return dataclasses.is_dataclass(x) or hasattr(x, "__dict__") or hasattr(type(x), "__slots__")
+
+
+def _traced_field(cls, name: str) -> bool:
+    """Whether a trace may read attribute ``name`` of a ``cls`` object inside a topology: a class
+    lists what it holds for a trace (``_traced_fields``, e.g. the Model's elements, not a
+    builder's notes attached to it) or what no trace reads (``_untraced_fields``, e.g. the
+    Topology's degree-of-freedom report)."""
+    keep = getattr(cls, "_traced_fields", None)
+    if keep is not None and name not in keep:
+        return False
+    return name not in getattr(cls, "_untraced_fields", ())
+
+
+def _perturb_number(x):
+    """The number every float of a topology becomes in :func:`perturbed`: sign flipped, scaled
+    and shifted, so that a branch on a sign, on zero or on a magnitude traces differently."""
+    return -(1.3183 * x + 0.0727)
+
+
+class _Perturber:
+    """A copy of a pytree's static data with every number inside a ``_numbers_are_data`` object
+    changed (:func:`perturbed`); it descends exactly where the structural hash abstracts."""
+
+    def __init__(self):
+        self.memo: dict[int, object] = {}
+        self.keep = []
+
+    def outside(self, x):
+        """Static data outside any topology: containers are copied only to reach one."""
+        if getattr(type(x), "_numbers_are_data", False):
+            return self.inside(x)
+        if type(x) is tuple:
+            return tuple(self.outside(e) for e in x)
+        if type(x) is list:
+            return [self.outside(e) for e in x]
+        if type(x) is dict:
+            return {k: self.outside(v) for k, v in x.items()}
+        if isinstance(x, jax.tree_util.PyTreeDef):
+            return _map_treedef(x, self.outside)
+        if _descends(x) and not isinstance(x, (float, complex, np.generic, np.ndarray, jax.Array)):
+            return self._copy_object(x, self.outside)
+        return x
+
+    def inside(self, x):  # noqa: C901 (mirrors _Hasher.visit)
+        if not _descends(x):
+            return x
+        if isinstance(x, (float, complex, np.floating, np.complexfloating)):
+            return type(x)(_perturb_number(x))
+        k = id(x)
+        if k in self.memo:
+            return self.memo[k]
+        self.keep.append(x)
+        if isinstance(x, np.ndarray):
+            if x.dtype.kind in "fc":
+                out = np.asarray(_perturb_number(x), dtype=x.dtype)
+            elif x.dtype.hasobject:
+                out = np.empty_like(x)
+                for i, e in enumerate(x.ravel()):
+                    out.ravel()[i] = self.inside(e)
+            else:
+                out = x
+            if not x.flags.writeable and out is not x:
+                out.flags.writeable = False
+        elif isinstance(x, jax.Array):
+            a = np.asarray(x)
+            out = jax.numpy.asarray(self.inside(a)) if a.dtype.kind in "fc" else x
+        elif isinstance(x, list):
+            out = _shallow(x)
+            self.memo[k] = out
+            out[:] = [self.inside(e) for e in x]
+        elif isinstance(x, tuple):
+            items = [self.inside(e) for e in x]
+            out = type(x)(*items) if hasattr(x, "_fields") else (tuple(items) if type(x) is tuple else type(x)(items))
+        elif isinstance(x, dict):
+            out = _shallow(x)
+            self.memo[k] = out
+            for kk in list(x):
+                out[kk] = self.inside(x[kk])
+        elif isinstance(x, types.MethodType):
+            out = types.MethodType(x.__func__, self.inside(x.__self__))
+        elif isinstance(x, functools.partial):
+            out = functools.partial(x.func, *self.inside(x.args), **self.inside(x.keywords or {}))
+        else:
+            out = self._copy_object(x, self.inside)
+        self.memo[k] = out
+        return out
+
+    def _copy_object(self, x, walk):
+        k = id(x)
+        if k in self.memo:
+            return self.memo[k]
+        out = _shallow(x)
+        self.memo[k] = out
+        self.keep.append(x)
+        d = getattr(x, "__dict__", None)
+        fixed = getattr(type(x), "_structure_fields", ()) if walk == self.inside else ()
+        if d is not None:
+            for name, v in list(d.items()):
+                if name not in fixed and (walk != self.inside or _traced_field(type(x), name)):
+                    object.__setattr__(out, name, walk(v))
+        for cls in type(x).__mro__:
+            for sl in cls.__dict__.get("__slots__", ()):
+                if sl not in ("__dict__", "__weakref__") and hasattr(x, sl):
+                    object.__setattr__(out, sl, walk(getattr(x, sl)))
+        return out
+
+
+def _shallow(x):
+    import copy
+
+    return copy.copy(x)
+
+
+def _map_treedef(td, f):
+    """``td`` with the static data of every node replaced by ``f(data)``."""
+    nd = td.node_data()
+    kids = [_map_treedef(c, f) for c in td.children()]
+    if nd is None:
+        return td
+    t, aux = nd
+    from jax._src import tree_util as _tu
+
+    return td.from_node_data_and_children(_tu.default_registry, (t, f(aux)), kids)
+
+
+def perturbed(static, treedef):
+    """(static arguments, treedef) with every number inside their ``_numbers_are_data`` objects
+    (a System's topology and what it holds) changed: a trace that reads none of them is equal,
+    constant for constant, to the original's (:meth:`CachedJit._numbers_free`)."""
+    p = _Perturber()
+    return tuple(p.outside(s) for s in static), p.outside(treedef)
+
+
+def structure_fingerprint(*objs) -> str:
+    """:func:`fingerprint` with the numbers inside ``_numbers_are_data`` objects left out: the
+    same for two assemblies of one model structure with other numbers (issue 42)."""
+    hs = _Hasher(structural=True)
+    for o in objs:
+        hs.visit(o)
+    return hs.h.hexdigest()
 
 
 def _global_names(code: types.CodeType) -> set:
@@ -486,6 +689,7 @@ class CachedJit:
         self.jitted = fn if hasattr(fn, "lower") else jax.jit(fn, static_argnums=self.static_argnums)
         self.name = f"{getattr(fn, '__module__', '?')}.{getattr(fn, '__qualname__', getattr(fn, '__name__', '?'))}"
         self._memo: OrderedDict = OrderedDict()
+        self._smemo: OrderedDict = OrderedDict()  # structure key → executable shared by its models
         self._lock = threading.Lock()
         functools.update_wrapper(self, fn)
         _INSTANCES.add(self)
@@ -550,18 +754,26 @@ class CachedJit:
 
     def _build(self, path, static, treedef, avals):
         specs = _specs(avals)
-        key = None
-        if path is not None:
-            try:
-                key = fingerprint(_environment_key(), self.name, self.fn, static, treedef, avals)
-            except Unkeyable as exc:
-                stats["unkeyed"] += 1
-                stats["why_unkeyed"] = (stats.get("why_unkeyed", []) + [f"{self.name}: {exc}"])[-10:]
-        if key is None:  # not on disk: compiled here, with this function's XLA options
+        key = skey = None
+        try:
+            key = fingerprint(_environment_key(), self.name, self.fn, static, treedef, avals)
+            skey = structure_fingerprint(_environment_key(), self.name, self.fn, static, treedef, avals)
+        except Unkeyable as exc:
+            stats["unkeyed"] += 1
+            stats["why_unkeyed"] = (stats.get("why_unkeyed", []) + [f"{self.name}: {exc}"])[-10:]
+        st = cache_store.get(path) if path is not None and key is not None else None
+        if skey is not None and skey != key and _share_structures():
+            entry = self._shared(st, static, treedef, specs, key, skey)
+            if entry is not None:
+                return entry
+        if st is None:  # not on disk: compiled here, with this function's XLA options
             return compile_lowered(jax.jit(self._flat(static, treedef)).lower(*specs), self.options)
-        st = cache_store.get(path)
-        stem = "".join(c if c.isalnum() or c == "_" else "_" for c in getattr(self.fn, "__name__", "fn"))
-        name = f"{stem}-{key[:40]}"
+        return self._stored(st, key, static, treedef, specs)
+
+    def _stored(self, st, key, static, treedef, specs, tag=""):
+        """The executable kept on disk under ``key`` (loaded, or traced, exported and saved)."""
+        avals = tuple((tuple(x.shape), np.dtype(x.dtype).str, bool(x.weak_type)) for x in specs)
+        name = self._entry_name(key, tag)
         _Trail.note(name, key, avals, self.options)
         compiled = _Trail.take(name)
         if compiled is not None:
@@ -582,6 +794,75 @@ class CachedJit:
         _save(st, name, key, exported)
         stats["exported"] += 1
         return _compile_exported(exported, specs, self.options)
+
+    def _entry_name(self, key, tag=""):
+        stem = "".join(c if c.isalnum() or c == "_" else "_" for c in getattr(self.fn, "__name__", "fn"))
+        return f"{stem}-{tag}{key[:40 - len(tag)]}"
+
+    def _shared(self, st, static, treedef, specs, key, skey):
+        """The executable every model of this structure shares (issue 42), or None: the trace
+        reads a number of the topology, or only one set of numbers has been seen so far.
+
+        The first model of a structure is compiled under its full key, as before, and recorded
+        as the structure's first; the first model with other numbers decides, once: its trace
+        is compared with the trace of a copy whose every topology number is changed
+        (:meth:`_numbers_free`). Equal traces mean the numbers reach the computation only as
+        arguments (``params``), so one executable serves every model of the structure."""
+        with self._lock:
+            hit = self._smemo.get(skey)
+        if hit is not None:
+            stats["shared"] += 1
+            return hit
+        free = _Verdicts.get(st, skey)
+        if free is None:
+            first = _Verdicts.first(st, skey)
+            if first is None or first == key:
+                _Verdicts.set_first(st, skey, key)
+                return None
+            free = self._numbers_free(static, treedef, specs)
+            _Verdicts.set(st, skey, free)
+            if free and st is not None:  # the first model's export is the structure's: no new trace
+                exported = _load(st, "export", self._entry_name(first), first)
+                if exported is not None:
+                    _save(st, self._entry_name(skey, "s"), skey, exported)
+        if not free:
+            return None
+        if st is None:
+            entry = compile_lowered(jax.jit(self._flat(static, treedef)).lower(*specs), self.options)
+        else:
+            entry = self._stored(st, skey, static, treedef, specs, tag="s")
+        if entry is None:
+            return None
+        stats["shared"] += 1
+        with self._lock:
+            self._smemo[skey] = entry
+            while len(self._smemo) > self.MEMO:
+                self._smemo.popitem(last=False)
+        return entry
+
+    def _numbers_free(self, static, treedef, specs) -> bool:
+        """Whether tracing reads no number of the topology (:meth:`trace_difference` is "")."""
+        stats["verified"] += 1
+        why = self.trace_difference(static, treedef, specs)
+        if why:
+            stats["why_not_shared"] = (stats.get("why_not_shared", []) + [f"{self.name}: {why}"])[-10:]
+        return not why
+
+    def trace_difference(self, static, treedef, specs) -> str:
+        """"" when the trace with every topology number changed (:func:`perturbed`) equals the
+        trace as it is, equation for equation and constant for constant; else what differs. A
+        perturbed model that fails to trace counts as a difference (when in doubt, miss)."""
+        import warnings
+
+        try:
+            s2, td2 = perturbed(static, treedef)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                j1 = jax.make_jaxpr(self._flat(static, treedef))(*specs)
+                j2 = jax.make_jaxpr(self._flat(s2, td2))(*specs)
+        except Exception as exc:  # noqa: BLE001 (a perturbed model may not trace at all)
+            return f"the perturbed model does not trace: {type(exc).__name__}: {exc}"[:300]
+        return _jaxpr_difference(j1, j2)
 
     def _flat(self, static, treedef):
         """``fn`` as a function of the flat leaves of its non-static arguments."""
@@ -604,6 +885,95 @@ class CachedJit:
             return export.export(jax.jit(self._flat(static, treedef)), platforms=("cpu",))(*specs)
         except Exception:  # an export limitation (or the user's error, which plain jit raises again)
             return None
+
+
+def reads_numbers(fn: CachedJit, *args) -> str:
+    """What tracing ``fn(*args)`` reads of the numbers of the topologies in ``args`` (a System's
+    masses, marker positions, gains, ...), as the first equation or constant that changes when
+    they all change; "" when it reads none, so that every model of this structure shares one
+    compiled ``fn`` (issue 42). The guard the tests run over the built-in robots."""
+    static, dyn = fn._split(args)
+    leaves, treedef = jax.tree_util.tree_flatten(dyn)
+    return fn.trace_difference(static, treedef, _specs(tuple(_aval(x) for x in leaves)))
+
+
+def structure_key(fn: CachedJit, *args) -> str:
+    """The key under which the models of one structure share ``fn`` compiled for ``args``
+    (:func:`structure_fingerprint` of what :class:`CachedJit` keys): equal for two assemblies
+    that differ only in their numbers."""
+    static, dyn = fn._split(args)
+    leaves, treedef = jax.tree_util.tree_flatten(dyn)
+    avals = tuple(_aval(x) for x in leaves)
+    return structure_fingerprint(_environment_key(), fn.name, fn.fn, static, treedef, avals)
+
+
+def _share_structures() -> bool:
+    """Whether models of one structure share executables (``PROLEG_SHARE_STRUCTURES=0``: never)."""
+    return os.environ.get("PROLEG_SHARE_STRUCTURES", "1").strip() not in ("0", "false", "no", "off")
+
+
+_ADDRESS = re.compile(r" at 0x[0-9a-fA-F]+")
+
+
+def _jaxpr_difference(j1, j2) -> str:
+    """"" when two closed jaxprs are the same computation with the same constants, else what differs."""
+    a, b = _ADDRESS.sub("", str(j1.jaxpr)), _ADDRESS.sub("", str(j2.jaxpr))
+    if a != b:
+        la, lb = a.splitlines(), b.splitlines()
+        i = next((k for k, (x, y) in enumerate(zip(la, lb)) if x != y), min(len(la), len(lb)))
+        return f"equation {i} differs: {la[i].strip()[:160] if i < len(la) else '(end)'}"
+    if len(j1.consts) != len(j2.consts):
+        return "constant count differs"
+    for i, (x, y) in enumerate(zip(j1.consts, j2.consts)):
+        x, y = np.asarray(x), np.asarray(y)
+        if x.shape != y.shape or x.dtype != y.dtype or x.tobytes() != y.tobytes():
+            return f"constant {i} {x.dtype}{list(x.shape)} differs"
+    return ""
+
+
+class _Verdicts:
+    """Per structure key: whether its models share one executable (True/False), or the full key
+    of the first model seen (not decided yet); kept in this process and in the store ("struct")."""
+
+    lock = threading.Lock()
+    memo: dict = {}
+
+    @classmethod
+    def _record(cls, st, skey):
+        with cls.lock:
+            if skey in cls.memo:
+                return cls.memo[skey]
+        rec = _load(st, "struct", skey[:40], skey) if st is not None else None
+        if rec is not None:
+            with cls.lock:
+                cls.memo[skey] = rec
+        return rec
+
+    @classmethod
+    def _put(cls, st, skey, rec):
+        with cls.lock:
+            cls.memo[skey] = rec
+        if st is not None:
+            st.write("struct", skey[:40], skey, pickle.dumps(rec))
+
+    @classmethod
+    def get(cls, st, skey):
+        rec = cls._record(st, skey)
+        return rec.get("free") if isinstance(rec, dict) else None
+
+    @classmethod
+    def first(cls, st, skey):
+        rec = cls._record(st, skey)
+        return rec.get("first") if isinstance(rec, dict) else None
+
+    @classmethod
+    def set_first(cls, st, skey, key):
+        if cls.first(st, skey) is None:
+            cls._put(st, skey, {"first": key})
+
+    @classmethod
+    def set(cls, st, skey, free: bool):
+        cls._put(st, skey, {"free": bool(free)})
 
 
 def tracing(tree) -> bool:
@@ -763,6 +1133,7 @@ def clear() -> None:
     for f in list(_INSTANCES):
         with f._lock:
             f._memo.clear()
+            f._smemo.clear()
 
 
 def cached_jit(fn=None, *, static_argnums=(), xla: str | None = "once"):

@@ -28,6 +28,9 @@ from .select import Select
 class ConstraintTopology:
     """Static description of the kept constraint rows (selections and numpy arrays, hashed by identity)."""
 
+    #: one-hot float selectors: structure, keyed exactly by the compile cache (never model data)
+    _structure_fields = ("sph_k", "d1_a", "d1_b", "d2_a")
+
     sph_i: Select  # (n, nm) selection of marker rows
     sph_j: Select
     sph_k: np.ndarray  # (n, 3) one-hot component

@@ -98,7 +98,12 @@ class Absolute:
 
 @dataclass(eq=False)
 class PlanarBasis:
-    """Static data of a planar reduction (hashed by identity; ``Topology.planar``, set by assemble)."""
+    """Static data of a planar reduction (hashed by identity; ``Topology.planar``, set by assemble).
+
+    Its numbers (the plane, the reduction's weights) are part of a model's structure: a trace
+    bakes them in, and the compile cache keys them exactly (``_numbers_are_structure``)."""
+
+    _numbers_are_structure = True
 
     normal: np.ndarray  # (3,) plane normal, ground
     E: np.ndarray  # (3, 2) in-plane basis, E[:, 0] × E[:, 1] = normal

@@ -102,6 +102,7 @@ class ControllerGroup(AbstractGroup):
     """PIDs and general discrete controllers; ``z`` slices assigned at assembly."""
 
     kind = "controller"
+    _structure_fields = ("period",)  # the controllers' clock (model/control.py PID)
 
     def __init__(self, elements, marker_index, nm, offset=0):
         super().__init__(elements, marker_index, nm)
@@ -130,10 +131,22 @@ class ControllerGroup(AbstractGroup):
         pids = [e for e in self.elements if e.kind == "pid"]
         if not pids:
             return {}
+        # Every number the sample reads is a parameter, so that a new gain, set point, limit,
+        # lever or valve lag is a new argument, not a new compile (issue 42). Which of them a PID
+        # has (a set point or none, a limit or none, a constant or a callable lever, a valve
+        # lag or none) is structure: the unused entries hold a neutral value and are never read.
+        def num(x, neutral):
+            return neutral if x is None or callable(x) else float(x)
+
+        taus = [getattr(self.actuators.get(e.actuator_ref), "valve_time_constant", None) for e in pids]
         return {
             "controller_kp": np.array([e.kp for e in pids]),
             "controller_kd": np.array([e.kd for e in pids]),
             "controller_ki": np.array([e.ki for e in pids]),
+            "controller_setpoint": np.array([num(e.setpoint, 0.0) for e in pids]),
+            "controller_output_limit": np.array([num(e.output_limit, np.inf) for e in pids]),
+            "controller_lever_arm": np.array([num(e.lever_arm, 1.0) for e in pids]),
+            "controller_valve_time_constant": np.array([num(t, 1.0) for t in taus]),
         }
 
     def z0(self, P):
@@ -160,20 +173,20 @@ class ControllerGroup(AbstractGroup):
                 elif callable(e.setpoint):
                     sp = jnp.asarray(e.setpoint(t) if _callable_arity(e.setpoint) <= 1 else e.setpoint(t, view), jnp.float64).reshape(())
                 else:
-                    sp = jnp.asarray(e.setpoint, jnp.float64)
+                    sp = P["controller_setpoint"][k]
                 err = sp - th[k]
                 integ = z[off + 1] + jnp.where(first, 0.0, err * e.period)
                 u = P["controller_kp"][k] * err + P["controller_ki"][k] * integ - P["controller_kd"][k] * th_d[k]
                 if e.output_limit is not None:
-                    u = jnp.clip(u, -e.output_limit, e.output_limit)
+                    lim = P["controller_output_limit"][k]
+                    u = jnp.clip(u, -lim, lim)
                 cmd = u
                 if e.lever_arm is not None:
-                    la = e.lever_arm(th[k]) if callable(e.lever_arm) else e.lever_arm
+                    la = e.lever_arm(th[k]) if callable(e.lever_arm) else P["controller_lever_arm"][k]
                     cmd = u / la
                 act = self.actuators.get(e.actuator_ref)
-                tau = getattr(act, "valve_time_constant", None)
-                if tau is not None:
-                    a = np.exp(-e.period / tau)
+                if getattr(act, "valve_time_constant", None) is not None:
+                    a = jnp.exp(-e.period / P["controller_valve_time_constant"][k])
                     cmd = jnp.where(first, cmd, a * z[off + 2] + (1 - a) * cmd)
                 new = jnp.stack([u, integ, cmd])
             else:

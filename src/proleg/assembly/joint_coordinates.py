@@ -66,7 +66,13 @@ ROT, TRANS, FLOAT_R, FLOAT_P = 0, 1, 2, 3
 class JointTree:
     """Static data of a joint-coordinate set (hashed by identity; cached on ``Topology.joint_tree``).
 
-    Arrays are indexed by part (model order) unless named ``dof_*`` (per coordinate)."""
+    Arrays are indexed by part (model order) unless named ``dof_*`` (per coordinate). Its numbers
+    are data (``_numbers_are_data``): the compile cache checks once per structure that a
+    trace reads none of them."""
+
+    _numbers_are_data = True
+    #: signs (±1) and the 0/1 ancestry matrix: structure, keyed exactly
+    _structure_fields = ("sigma", "anc")
 
     parent: np.ndarray  # (nb,) parent part, nb = ground; -1 for a floating base
     levels: list  # [array of parts] per depth, roots of jointed parts first

@@ -28,7 +28,15 @@ from .select import Select
 
 @dataclass(eq=False)
 class Topology:
-    """Static (hashed by identity) part of a System: names, counts, index maps, callables."""
+    """Static part of a System: names, counts, index maps, callables (hashed by identity for
+    JAX). Its numbers are data: the numbers a trace reads come from ``params``, so two
+    assemblies of one structure share their compiled functions (``_numbers_are_data``;
+    proleg.compile_cache.structure_fingerprint, which verifies it once per structure)."""
+
+    _numbers_are_data = True
+    #: the degree-of-freedom report (counts, the pose's largest joint residual): read by checks
+    #: and messages, never by a trace
+    _untraced_fields = ("dof",)
 
     name: str
     body_names: list

@@ -87,7 +87,7 @@ def servo_stability(system: System, q=None, v=None, t=0.0, z=None) -> list[dict]
             continue
         la = 1.0
         if e.lever_arm is not None:
-            la = float(e.lever_arm(th[k])) if callable(e.lever_arm) else float(e.lever_arm)
+            la = float(e.lever_arm(th[k])) if callable(e.lever_arm) else float(P["controller_lever_arm"][k])
         gain = gains[k] / la  # joint acceleration per unit PID output u
         if not gain > 0:
             continue  # the command does not move the joint (or pushes it backwards): not this check's case

@@ -243,6 +243,9 @@ class PID:
     """
 
     kind = "pid"
+    #: the sample period shapes the step loop (the driver samples on its clock): structure, keyed
+    #: exactly by the compile cache, not model data
+    _structure_fields = ("period",)
 
     def __init__(self, name, joint, kp, kd=0.0, ki=0.0, setpoint=None, period=1e-3, actuator=None, lever_arm=None, output_limit=None, dof=None):
         who = f"PID '{name}'"
@@ -286,6 +289,9 @@ class DiscreteController:
     """
 
     kind = "discrete"
+    #: the sample period shapes the step loop (the driver samples on its clock): structure, keyed
+    #: exactly by the compile cache, not model data
+    _structure_fields = ("period",)
 
     def __init__(self, name, update, z0, outputs, period=1e-3):
         self.name, self.update = name, update

@@ -18,6 +18,14 @@ class Model:
     >>> bob = model.add_part("bob", mass=1.0, inertia=(1e-3, 1e-3, 1e-3), position=(1, 0, 0))
     """
 
+    #: What a trace of the assembled model may read (proleg.compile_cache): the elements. A
+    #: builder's notes attached to a model (``model.hyq``, ``model.urdf``: parameter tables,
+    #: sources) describe it for reports and are not part of its structure key.
+    _traced_fields = (
+        "name", "gravity", "ground", "parts", "markers", "joints", "forces", "contacts", "motions",
+        "controllers", "actuators", "couplers", "batteries", "variables", "laws",
+    )
+
     def __init__(self, name: str = "model", gravity=(0.0, 0.0, -9.81)):
         self.name = name
         self.gravity = finite_array(f"Model '{name}' gravity", gravity, (3,))

@@ -429,7 +429,7 @@ def hyq_leg(
         setpoints = {"hip": th1, "knee": th2}
         for side, (mi, mj), pin in (("hip", (hip_i, hip_j), 1), ("knee", (knee_i, knee_j), 4)):
             if pin in bpins:
-                model.add_controller(_pin_servo(f"{side}_servo", mi, mj, kp, kd, setpoints[side], servo_period, f"{side}_actuator", levers[side]))
+                model.add_controller(_pin_servo(model, f"{side}_servo", mi, mj, kp, kd, setpoints[side], servo_period, f"{side}_actuator", levers[side]))
             else:
                 model.add_controller(
                     PID(f"{side}_servo", joint=side, kp=kp, kd=kd, setpoint=setpoints[side], period=servo_period,
@@ -511,19 +511,25 @@ def _pin_angle(RI, RJ):
     return jnp.arctan2(jnp.dot(RI[:, 0], RJ[:, 1]), jnp.dot(RI[:, 0], RJ[:, 0]))
 
 
-def _pin_servo(name, mi, mj, kp, kd, setpoint, period, actuator, lever):
+def _pin_servo(model, name, mi, mj, kp, kd, setpoint, period, actuator, lever):
     """The seed 000 PD servo on the angle of a bushing pin (I relative to J about z_J).
 
     Same law and zero-order hold as :class:`proleg.PID`: u = kp (θ_set − θ) − kd θ̇ [N m],
     cylinder force command u / lever(θ) [N]. The controller state holds u (its output).
+    Its gains and set point are design variables (``<name>_kp``, ``<name>_kd``,
+    ``<name>_setpoint``) and the law closes over names only, so a leg with other numbers is
+    the same structure and shares the compiled run (issue 42).
     """
-    pi_name, pj_name = mi.part.name, mj.part.name
+    mi_name, mj_name, pi_name, pj_name = mi.name, mj.name, mi.part.name, mj.part.name
+    v_kp = model.add_variable(f"{name}_kp", kp, "N m/rad", f"{name} proportional gain")
+    v_kd = model.add_variable(f"{name}_kd", kd, "N m s/rad", f"{name} derivative gain")
+    v_sp = model.add_variable(f"{name}_setpoint", setpoint, "rad", f"{name} set point")
 
     def update(t, state, z):
-        RI, RJ = state.marker_orientation(mi.name), state.marker_orientation(mj.name)
+        RI, RJ = state.marker_orientation(mi_name), state.marker_orientation(mj_name)
         th = _pin_angle(RI, RJ)
         th_d = jnp.dot(RJ[:, 2], state.angular_velocity(pi_name) - state.angular_velocity(pj_name))
-        u = kp * (setpoint - th) - kd * th_d
+        u = state.variable(v_kp) * (state.variable(v_sp) - th) - state.variable(v_kd) * th_d
         return jnp.reshape(u, (1,)), {actuator: u / lever(th)}
 
     return DiscreteController(name, update, z0=[0.0], outputs=[actuator], period=period)
