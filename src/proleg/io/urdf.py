@@ -271,15 +271,17 @@ def load_urdf(
     contact : dict, keyword arguments of :class:`proleg.SphereContact` (stiffness, damping,
         mu_static, ...) for every foot, on top of :data:`FOOT_CONTACT`: **feet have friction by
         default**, μ_static = μ_dynamic = 0.8 (rubber-soled feet on concrete or wood; a robot stands
-        on a 35° slope), with the stiction and transition velocities v_stiction = 0.01 m/s and
-        v_friction = 0.05 m/s. Choosing values: a stuck foot creeps at about
-        v_stiction · tan θ / μ on a slope of θ (2 mm/s at 10°), and below about 0.01 m/s the
-        stick–slip transition becomes a stiff tangential damper (μ F_n / v_stiction) that the
-        step-size control must resolve: bench/urdf_friction.py (results in
-        bench/results/urdf_friction.md) measured steps against the answer of a dropped leg and a
-        robot standing on a 10° slope; SphereContact's own defaults (1e-3, 1e-2 m/s) take
-        many times the steps for a change in the answer well below the contact's own modelling
-        error. Pass ``contact={"mu_static": 0, "mu_dynamic": 0}`` for frictionless feet.
+        on slopes up to 38°), with the stiction and transition velocities v_stiction = 0.01 m/s and
+        v_friction = 0.05 m/s. Choosing values: below v_stiction the friction coefficient rises
+        from 0 with slope 1.5 μ / v_stiction, so a stuck foot is a stiff tangential damper
+        (μ F_n / v_stiction) whose stick–slip changes the step control must resolve, and it creeps
+        at about v_stiction · tan θ / (1.5 μ) on a slope θ (1.5 mm/s at 10°).
+        bench/urdf_friction.py (bench/results/urdf_friction.md) measured steps against the
+        answer: a planar leg dropped on 1 kHz servos took 8,225 steps at SphereContact's own
+        1e-3 / 1e-2 m/s and 1,178 at 0.01 / 0.05 m/s (the servo sampling's floor is ~1,000),
+        its slide moving 0.7 mm of 11 mm; 0.01 / 0.05 is the knee of that curve (the contacts
+        guide has the table).
+        Pass ``contact={"mu_static": 0, "mu_dynamic": 0}`` for frictionless feet.
     joint_stops : bool; revolute ``<limit>`` → :class:`RotationalBacklash` with
         ``stop_stiffness`` [N m/rad], ``stop_damping`` [N m s/rad] and a smoothing ``stop_width``
         [rad] (choosing values: the stop's penetration under a torque τ is τ/k; 1e4 N m/rad
@@ -381,8 +383,10 @@ def load_urdf(
     # their initial positions: urdf_inertia); a group is named after its top link
     link_mass = {ln: _link_inertial(links[ln])[0] for ln in order}
     for ln, m in link_mass.items():
-        if m < 0:
-            raise ModelError(f"{where}: link '{ln}' has negative mass {m} kg. Give <mass value=...> ≥ 0.")
+        if not (np.isfinite(m) and m >= 0):
+            raise ModelError(f"{where}: link '{ln}' has mass {m} kg. Give a finite <mass value=...> ≥ 0 [kg].")
+        if m > 0 and not np.all(np.isfinite(_link_inertial(links[ln])[2])):
+            raise ModelError(f"{where}: link '{ln}' has a non-finite <inertia> or <inertial><origin>. Give finite values [kg m², m].")
     welded: set = set()
     group = _groups(order, parent_joint, welded, root, floating_base)
     bounded: list = []
@@ -637,11 +641,11 @@ def load_urdf(
         base_pose=X_W[root],
         initial_positions={jn: q0.get(jn, 0.0) for jn, *_ in info_joints},
     )
+    model.urdf = info
     if initial_velocities or base_velocity is not None:
         from .urdf_kin import set_initial_velocity
 
         set_initial_velocity(model, joint_rates=initial_velocities, base_velocity=base_velocity)
-    model.urdf = info
     quiet = [n for n in notes if "not found" not in n]
     if quiet:
         warnings.warn(f"{where}: imported with approximations:\n  - " + "\n  - ".join(quiet), UrdfWarning, stacklevel=2)
