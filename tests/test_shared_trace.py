@@ -230,3 +230,38 @@ def test_structure_summary_names_the_key_parts():
     assert info["parts"] == s.topo.nbody and info["elements"]["contact"] == 1
     assert info["structure numbers"]["hip_servo.period"] == pytest.approx(1e-3)
     assert len(info["key"]) == 16
+
+
+# -- gradients with respect to geometry ------------------------------------------------------------
+def test_geometry_gradient_matches_central_differences():
+    """∂(lower link's final height)/∂(upper-link length) of the README pendulum through the
+    simulation (forward mode along the builder's parameter direction) against central
+    differences of whole runs. Both at rtol 1e-11, where the integration error in a difference
+    quotient of step 1e-4 is below 1e-6 of the derivative; tolerance 1e-4 relative (issue 42)."""
+    from proleg.analyses.structure import design_gradient
+
+    kw = dict(t_end=0.5, dt_output=0.05, progress=False, rtol=1e-11)
+
+    def metric(r):
+        return r.part("lower").position[-1, 2]
+
+    value, grad = design_gradient(lambda length: readme_pendulum(length), {"length": 1.0}, metric, **kw)
+    h = 1e-4
+    fd = (float(metric(_sim(readme_pendulum(1.0 + h), kw))) - float(metric(_sim(readme_pendulum(1.0 - h), kw)))) / (2 * h)
+    assert value == pytest.approx(float(metric(_sim(readme_pendulum(1.0), kw))), rel=1e-12)
+    assert abs(fd) > 1e-2  # the length matters
+    assert grad["length"] == pytest.approx(fd, rel=1e-4)
+
+
+def _sim(model, kw):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return pl.simulate(pl.assemble(model), **kw)
+
+
+def test_a_structural_design_argument_has_no_gradient():
+    from proleg.analyses.structure import design_gradient
+
+    with pytest.raises(pl.ModelError, match="changes the structure"):
+        design_gradient(lambda links: readme_pendulum(1.0, links=int(round(links))), {"links": 2.4}, lambda r: 0.0,
+                        rel_step=0.1, t_end=0.1)

@@ -87,3 +87,44 @@ def structure_summary(system: System) -> dict:
         "data parameters": len(system.params),
         "key": structure_key(_ic, *_ic_args(system))[:16],
     }
+
+
+def design_gradient(build, design: dict, metric, names=None, *, rel_step: float = 1e-6, **simulate_kw):
+    """(metric, {name: ∂metric/∂name}) for a builder's design arguments (a link length, a
+    cylinder attachment point), through the simulation.
+
+    ``build(**design)`` returns a Model; ``metric(result)`` a scalar (a peak force, a final
+    height, ...); ``simulate_kw`` go to :func:`proleg.simulate`. A builder is plain Python, so its
+    map from design numbers to ``System.params`` is differentiated by central differences of
+    ``assemble`` (step ``rel_step`` × max(1, |x|): the map is smooth and usually affine, so the
+    error is round-off); the simulation by forward mode (``jax.jvp``) along that direction, one
+    compiled pass for every name. A design argument that changes the structure (a count, a
+    kind, a branch) has no derivative: ModelError."""
+    import jax
+    import jax.numpy as jnp
+
+    from ..assembly.assemble import assemble
+    from ..errors import ModelError
+    from .simulate import simulate
+
+    names = list(design) if names is None else list(names)
+    s0 = assemble(build(**design))
+
+    def f(P):
+        return metric(simulate(s0.with_params(P), **simulate_kw))
+
+    jvp = jax.jit(lambda P, dP: jax.jvp(f, (P,), (dP,)))
+    value, out = None, {}
+    for name in names:
+        x = float(design[name])
+        h = rel_step * max(1.0, abs(x))
+        sp, sm = assemble(build(**{**design, name: x + h})), assemble(build(**{**design, name: x - h}))
+        if not (same_structure(s0, sp) and same_structure(s0, sm)):
+            raise ModelError(
+                f"design_gradient: '{name}' changes the structure of model '{s0.topo.name}' (structure_summary "
+                "differs), so the metric has no derivative with respect to it. Give only continuous numbers."
+            )
+        dP = {k: (jnp.asarray(sp.params[k]) - jnp.asarray(sm.params[k])) / (2.0 * h) for k in s0.params}
+        value, d = jvp(s0.params, dP)
+        out[name] = float(d)
+    return (float(value) if value is not None else float(f(s0.params))), out

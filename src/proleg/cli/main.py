@@ -120,6 +120,11 @@ def info(
         # What simulate's integrator="auto" picks, and why (solvers/auto.py), for a 1 s run.
         "integrator": _auto_choice(system),
     }
+    # The structure key's parts (issue 42): what a new compile depends on; every other number is
+    # data (system.params), and a model that differs only in those shares the compiled run.
+    from proleg.analyses.structure import structure_summary
+
+    data["structure"] = structure_summary(system)
     if getattr(mdl, "urdf", None) is not None:
         data["mass_kg"] = round(sum(p.mass for p in mdl.parts), 6)
         data["urdf: dropped or approximated"] = list(mdl.urdf.notes)
@@ -128,6 +133,8 @@ def info(
         return
     t = Table(title=f"model '{mdl.name}'", show_header=False)
     for k, v in data.items():
+        if isinstance(v, dict):
+            v = "; ".join(f"{kk}: {vv}" for kk, vv in v.items())
         t.add_row(k, ", ".join(map(str, v)) if isinstance(v, list) else str(v))
     console().print(t)
 

@@ -153,9 +153,25 @@ def hyq_trot_model(speed=1.0, actuators="hydraulic", *, gait: Trot | None = None
     for jn in all_joints:
         model.add_actuator(JointActuator(f"{jn}.drive", jn))
 
+    # The gait's numbers, the mass, the trunk height and the feet's nominal offsets are design
+    # variables (``trot_speed``, ``trot_period``, ...; ``system.with_params``), and the law closes
+    # over names only: a trot at another speed or with other gains is the same structure and
+    # reuses the compiled run (issue 42), and a study can sweep them.
+    gait_keys = tuple(f.name for f in dataclasses.fields(gait) if getattr(gait, f.name) is not None)
+    for k in gait_keys:
+        model.add_variable(f"trot_{k}", float(getattr(gait, k)), "", f"trot gait: {k} (proleg.control.gait.Trot)")
+    model.add_variable("trot_mass", mass, "kg", "total mass the trot law carries")
+    model.add_variable("trot_height", z_d, "m", "trunk height the trot law holds (unless the gait sets one)")
+    for leg in LEGS:
+        for i, ax in enumerate("xy"):
+            model.add_variable(f"trot_nominal_{leg}_{ax}", float(nominal[leg][i]), "m", f"{leg} foot's nominal {ax} offset from its hip")
+    gait_type = type(gait)
+
     def law(t, state):
-        tau, _ = quadruped_torques(gait, t, state, legs=LEGS, joints=joints, feet=feet, base="base_link", mass=mass, nominal=nominal,
-                                   foot_height=FOOT_RADIUS, z_d=z_d)
+        g = gait_type(**{k: state.variable(f"trot_{k}") for k in gait_keys})
+        nom = {leg: jnp.stack([state.variable(f"trot_nominal_{leg}_x"), state.variable(f"trot_nominal_{leg}_y")]) for leg in LEGS}
+        tau, _ = quadruped_torques(g, t, state, legs=LEGS, joints=joints, feet=feet, base="base_link", mass=state.variable("trot_mass"),
+                                   nominal=nom, foot_height=FOOT_RADIUS, z_d=state.variable("trot_height"))
         return tau
 
     if actuators == "torque":
