@@ -86,6 +86,8 @@ def test_unknown_names_list_the_valid_ones(leg_result):
         leg_result.joint("foot")
     with pytest.raises(ModelError, match=r"'knee' is a revolute joint.*The model has no motions"):
         leg_result.motion("knee")
+    with pytest.raises(ModelError, match=r"'knee' is a revolute joint.*not a coupler.*The model has no couplers"):
+        leg_result.coupler("knee")
 
 
 def test_right_kind_still_reads(leg_result):
@@ -181,6 +183,23 @@ def test_peak_between_outputs_and_how_to_get_it(leg_result):
     np.testing.assert_allclose(F2[np.isin(fine.t, coarse)], F1, rtol=1e-9, atol=1e-9)
     assert F1.max() < 0.98 * F2.max()
     assert 0.0774 < fine.t[np.argmax(F2)] < 0.0794  # the touch-down peak, inside the window
+
+
+@pytest.mark.slow
+def test_joint_acceleration_on_a_flexible_part():
+    """A joint marker on a flexible part moves with the modes: its acceleration comes from the
+    compiled marker kinematics differentiated along (v, q̈). The pin's marker I sits on the
+    frame node, so its angular acceleration is the floating frame's (NumPy, from q̈)."""
+    from test_flexible_body import pendulum as flexible_pendulum
+    from test_flexible_body import reduced_strip
+
+    beam, rb, root, tip = reduced_strip(n_el=4, n_modes=1)
+    r = pl.simulate(flexible_pendulum(rb, root, tip), 0.1, 1e-3, integrator=pl.GeneralizedAlpha(rtol=1e-8, atol=1e-10))
+    jr = r.joint("pin")
+    frame = r.part("link").angular_acceleration[:, 1]  # the pin's z_J is ground y
+    assert np.max(np.abs(frame)) > 10.0
+    np.testing.assert_allclose(jr.angular_acceleration, frame, rtol=0, atol=1e-9 * np.max(np.abs(frame)))
+    assert "pin.angular_acceleration [rad/s²]" in r.to_frame().columns
 
 
 # ---------------------------------------------------------------------------------------------

@@ -363,7 +363,7 @@ class Result:
         k = self._index(owners, key, "coupler", "coupler")
         cp = ct.owners[k]
         if getattr(cp, "kind", "") != "coupler":
-            raise ModelError(f"'{key}' is a {getattr(cp, 'kind', 'joint')}, not a Coupler; use result.joint('{key}').")
+            self._not_found(key, "coupler")
         rows = np.flatnonzero(ct.row_owner == k)
         if rows.size == 0:
             raise ModelError(f"Coupler '{key}': its equation was removed as redundant; its reaction is indeterminate.")
