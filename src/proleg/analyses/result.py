@@ -391,7 +391,13 @@ class Result:
 
     # -- export ----------------------------------------------------------------------------------
     def to_frame(self):
-        """A pandas DataFrame with units in the column names (``"lower.x [m]"``)."""
+        """A pandas DataFrame with units in the column names (``"lower.x [m]"``): time; each part's
+        position, Euler parameters, yaw-pitch-roll, velocity and angular velocity; each revolute,
+        screw, cylindrical and prismatic joint's coordinate, rate and acceleration
+        (``knee.angular_acceleration [rad/s²]``, :meth:`_joint_coordinate_columns`); every joint's
+        and motion's reaction; every element's outputs (a joint element's in the unit of its own
+        degree of freedom: ``knee_motor.effort [N m]``); every controller's output and command
+        (``knee_servo.output [N m]``, :meth:`_controller_columns`); the energies."""
         import pandas as pd
 
         cols = {"time [s]": self.t}
