@@ -24,10 +24,10 @@ setpoints so that the servos already carry the weight at the stance (gravity com
 
 Choosing values: a higher f_n stiffens the stand but needs a larger D gain, and a D gain
 sampled every T is stable only below 2 I / T on the lightest link it drives (I its effective
-inertia; :mod:`proleg.control.servo`, which ``simulate`` checks and warns about). At 5 Hz Go1's
-calf servos sit at kd T / I = 2.0, unstable at 1 kHz; 4 Hz gives 1.6 (Go1 kp = 86 N m/rad,
-kd = 6.9 N m s/rad), and with gravity compensation Go1 carries its weight to 0.01 % 0.2 s after
-being put down on its feet. Joints that are on no leg (arms, heads) get the same gains.
+inertia; :mod:`proleg.control.servo`, which ``simulate`` checks and warns about). At 4 Hz Go1
+gets kp = 52 N m/rad, kd = 4.1 N m s/rad (its calf: kd T / I = 1.0 at 1 kHz, I = 0.0043 kg m²),
+and 0.2 s after being put down on its feet at its SRDF stance the ground carries its weight to
+0.01 % (Solo12 likewise). Joints that are on no leg (arms, heads) get the same gains.
 """
 
 from __future__ import annotations
