@@ -1,7 +1,8 @@
 """Joint vs planar vs absolute coordinates: compile time and cost per step (issue 21).
 
-Each model is assembled once and simulated twice per coordinate set with the default
-integrator (generalized-α ρ∞ = 0.8, rtol 1e-6, atol 1e-7) in one process: ``compile [s]`` is
+Each model is assembled once and simulated twice per coordinate set with generalized-α
+(ρ∞ = 0.8, rtol 1e-6, atol 1e-7; the default integrator of these models but the smooth trees,
+which ``auto`` gives Tsit5) in one process: ``compile [s]`` is
 the first call minus the second, ``wall [s]`` the second, ``us/step`` the second per accepted
 step. ``planar`` only where the model is planar. The "auto" rule of
 ``proleg.assembly.coordinates.coordinate_set`` is decided from these figures.
@@ -11,7 +12,10 @@ Models: ``pendulum`` (1 rod), ``double_pendulum``, ``chain3``, ``chain8`` (bench
 floating base with the spherical joint as cut-joint rows), ``floating_chain`` (a free base with
 two links, tests/test_joint_coordinates.py), ``four_bar`` (a closed loop, tests/test_core_fourbar.py),
 ``hyq_leg`` (the HyQ leg drop, rigid joints), ``scout2`` (Scout II Model I bounding, its
-Planar body joint) and ``flegx`` (the FLEGX leg, configuration 4, rigid links: tendon-rod loops).
+Planar body joint), ``flegx`` (the FLEGX leg, configuration 4, rigid links: tendon-rod loops)
+and ``hyq_stand`` (the whole HyQ, a floating base with 12 servos and four feet, dropped 5 cm:
+run with ``GeneralizedAlpha(jacobian_reuse=True)`` in every coordinate set, so that only the
+coordinates differ; bench/whole_robot.py times the defaults on whole quadrupeds).
 
     python bench/coordinates.py                         # all models (~15 min on the 2-core VM)
     python bench/coordinates.py --models chain3 hyq_leg --coordinates joint planar
@@ -64,6 +68,9 @@ def models():
         "hyq_leg": (lambda: pl.robots.hyq_leg(joints="rigid", actuators="drop"), 0.3, 1e-3, {}),
         "scout2": (lambda: pl.robots.scout2("I"), 0.3, 1e-3, {}),
         "flegx": (lambda: pl.robots.flegx(4, 2, "rigid"), 0.3, 1e-3, {}),
+        # a floating-base tree with contacts and servos; one integrator for every coordinate set
+        # (GeneralizedAlpha with the Newton matrix reused), so that only the coordinates differ
+        "hyq_stand": (lambda: pl.robots.hyq(drop=0.05), 0.2, 1e-2, {"integrator": pl.GeneralizedAlpha(jacobian_reuse=True)}),
     }
 
 
@@ -111,7 +118,9 @@ def main(argv=None):
                 row.update({"coordinates": coords, "status": f"{type(exc).__name__}: {str(exc)[:80]}"})
             rows.append(row)
             log(f"   {time.perf_counter() - t0:.1f} s: {row}")
-    notes = ["default integrator (generalized-α, rtol 1e-6); compile = first call − second; us/step = second call / accepted steps",
+    notes = ["default integrator (integrator='auto': generalized-α at rtol 1e-6 on absolute and planar coordinates and on models "
+             "with contacts, stops, controllers or loops; Tsit5 for smooth trees with coordinates 'joint' or 'auto'); hyq_stand: "
+             "GeneralizedAlpha(jacobian_reuse=True) in every coordinate set; compile = first call − second; us/step = second call / accepted steps",
              "tree dofs / cut joints / loop rows: the joint-coordinate set (loop rows include floating-base normalization rows)"]
     emit(args, "Coordinates: compile time and cost per step", rows, COLUMNS, notes=notes)
 

@@ -418,30 +418,82 @@ def _canonical_basis(U) -> list:
     return out
 
 
+def floating_tree(system: System) -> tuple[bool, str]:
+    """(True, why) when ``system`` is a loop-free tree hanging from a floating base: in joint
+    coordinates (assembly/joint_coordinates.py) at least one part is free (no tree joint to
+    ground), at least one part hangs from it by a revolute/prismatic/cylindrical/fixed joint, and
+    no constraint row is left but each free part's quaternion normalisation (no cut joint, motion
+    or coupler). A legged robot is one; a free part held only by bushings or contacts is not
+    (its joint coordinates are its absolute ones). Read from the topology, plain Python; the
+    tree is cached on ``system.topo.joint_tree`` (joint_set)."""
+    topo = system.topo
+    if topo.n_eta:
+        return False, "flexible bodies"
+    # The spanning tree first (plain Python): a model with a cut joint, a motion or a coupler
+    # stops here, before joint_set selects its loop rows (which compiles a Jacobian).
+    from .joint_coordinates import _spanning_tree, joint_set
+
+    try:
+        parent, joint, _, _ = _spanning_tree(topo)
+    except Exception as e:  # noqa: BLE001
+        return False, f"no spanning tree ({type(e).__name__})"
+    if not np.any(parent == -1):
+        return False, "no floating base"
+    in_tree = {id(joint[b][1]) for b in range(topo.nbody) if parent[b] >= 0}
+    cut = [j.name for j in topo.joints if id(j) not in in_tree]
+    if cut:
+        return False, f"closed loops or joints outside the tree ({', '.join(cut[:4])})"
+    joint_ids = {id(j) for j in topo.joints}
+    other = [getattr(o, "name", "?") for o in getattr(topo.ct, "owners", ()) if id(o) not in joint_ids]
+    if other:
+        return False, f"motions or couplers on the tree ({', '.join(other[:4])})"
+    try:
+
+        tree = joint_set(system).tree
+    except Exception as e:  # noqa: BLE001  (no joint-coordinate tree: the model runs in absolute coordinates)
+        out = (False, f"no joint-coordinate tree ({type(e).__name__}: {str(e).splitlines()[0][:80] if str(e) else ''})")
+    else:
+        if not tree.floating.size:
+            out = (False, "no floating base")
+        elif tree.nq <= 7 * tree.floating.size:
+            out = (False, "free parts without joints")
+        elif tree.ct.n_rows:
+            out = (False, f"closed loops or constraints on the tree ({', '.join(tree.cut) or 'motions, couplers'})")
+        else:
+            out = (True, "loop-free tree on a floating base")
+    return out
+
+
 def auto_coordinates(system: System) -> tuple[str, str]:
     """What ``coordinates="auto"`` runs, decided from the topology alone: ("planar", why) where the
-    joints confine every part to one plane, else ("absolute", why). Never "joint".
+    joints confine every part to one plane; ("joint", why) for a loop-free tree on a floating
+    base (:func:`floating_tree`: a legged robot); else ("absolute", why).
 
-    The rule is measured (bench/coordinates.py; the table is in docs/performance.md,
-    "Coordinates"): joint coordinates cost about the same per step as planar ones on loop-free
-    chains but take more steps and compile 2–3× longer; with cut joints (closed loops) they
-    cost about twice as much per step as planar or absolute coordinates; FLEGX's tendon-rod
-    loops leave joint coordinates with free degrees of freedom (ModelError). No model is faster
-    in joint coordinates including compile, so "auto" does not pick them; force
-    ``coordinates="joint"`` for long runs of small loop-free trees, or use the Diffrax
-    integrators (pl.Tsit5), which run in joint coordinates."""
+    The rule is measured (bench/coordinates.py, bench/results/coordinates.md; bench/whole_robot.py,
+    bench/results/whole_robot.md). Models without a floating base: joint coordinates cost about
+    the same per step as planar ones on loop-free chains but take more steps and compile 2–3×
+    longer; with cut joints (closed loops) they cost about twice as much per step as planar or
+    absolute coordinates; FLEGX's tendon-rod loops leave joint coordinates with free degrees of
+    freedom (ModelError). Floating-base trees are the other way round: absolute coordinates give
+    every leg link 7 coordinates and 5 joint rows (HyQ: 91 coordinates + 77 rows against 19
+    coordinates + 1 row), so the Newton matrix of a whole quadruped is ~9× larger, and joint
+    coordinates are several times faster per step and to compile, contacts, servos and
+    actuators included."""
     basis, why = getattr(system.topo, "planar", (None, "not checked"))
-    if basis is None:
-        return "absolute", f"not planar ({why})"
-    return "planar", "every part confined to one plane by its joints"
+    if basis is not None:
+        return "planar", "every part confined to one plane by its joints"
+    ok, why_tree = floating_tree(system)
+    if ok:
+        return "joint", f"{why_tree} (not planar: {why})"
+    return "absolute", f"not planar ({why}); not a floating-base tree ({why_tree})"
 
 
 def coordinate_set(system: System, q_ref, coordinates: str = "auto"):
     """The coordinates to integrate ``system`` in: "absolute", "planar" (error if the model is not
     planar), "joint" (joint coordinates of the spanning tree, loops as constraints:
     assembly/joint_coordinates.py) or "auto" (:func:`auto_coordinates`: planar where the joints
-    confine every part to one plane, else absolute; joint coordinates were measured slower
-    including compile on every model tried, its docstring has the figures)."""
+    confine every part to one plane, joint coordinates for a loop-free tree on a floating base,
+    else absolute; its docstring has the measurements)."""
     if coordinates not in ("auto", "absolute", "planar", "joint"):
         raise ValueError(f"coordinates must be 'auto', 'absolute', 'planar' or 'joint', got {coordinates!r}.")
     if coordinates == "absolute":
@@ -457,5 +509,9 @@ def coordinate_set(system: System, q_ref, coordinates: str = "auto"):
                 f"Model '{system.topo.name}' cannot run in planar coordinates ({why}): every part must be "
                 "confined by its joints to one plane (revolute axes parallel to its normal). Use coordinates='absolute'."
             )
+        if floating_tree(system)[0]:
+            from .joint_coordinates import joint_set
+
+            return joint_set(system)
         return Absolute(system)
     return Planar(system, q_ref, basis)
