@@ -265,3 +265,33 @@ def test_a_structural_design_argument_has_no_gradient():
     with pytest.raises(pl.ModelError, match="changes the structure"):
         design_gradient(lambda links: readme_pendulum(1.0, links=int(round(links))), {"links": 2.4}, lambda r: 0.0,
                         rel_step=0.1, t_end=0.1)
+
+
+@cc.cached_jit
+def _returns_the_box(box):
+    return Box(2.0 * box.x, box.holder)  # the result carries the static object
+
+
+def test_a_result_that_carries_the_model_is_not_shared(cache):
+    """An executable whose result holds a topology would hand every model the first one's."""
+    x = jnp.linspace(0.0, 1.0, 3)
+    assert "static data" in cc.reads_numbers(_returns_the_box, Box(x, Holder(1.0, 1.0)))
+    for g in (1.0, 2.0, 3.0):
+        h = Holder(g, g)
+        assert _returns_the_box(Box(x, h)).holder is h
+
+
+@cc.cached_jit
+def _skips_zero(box):
+    return box.x if box.holder.offset == 0 else box.x + jnp.sin(box.x)  # a branch on zero
+
+
+def test_a_branch_on_zero_is_found_when_no_model_seen_is_zero(cache):
+    """The models' own offsets are all nonzero and the first change keeps them so; the second
+    change (every number zero) takes the other branch, so nothing is shared and the model with a
+    zero offset gets its own answer."""
+    x = jnp.linspace(0.0, 1.0, 3)
+    assert cc.reads_numbers(_skips_zero, Box(x, Holder(1.0, 2.0)))
+    for o in (2.0, 3.0, 0.0):
+        want = np.asarray(x) if o == 0 else np.asarray(x) + np.sin(np.asarray(x))
+        np.testing.assert_allclose(_skips_zero(Box(x, Holder(1.0, o))), want, rtol=1e-15)

@@ -490,13 +490,20 @@ def _perturb_number(x):
     return -(1.3183 * x + 0.0727)
 
 
+def _zero_number(x):
+    """The second perturbation: every number zero (a branch on ``x == 0`` or on a sign, when the
+    model's own numbers are all on one side of it)."""
+    return 0.0 * x
+
+
 class _Perturber:
     """A copy of a pytree's static data with every number inside a ``_numbers_are_data`` object
     changed (:func:`perturbed`); it descends exactly where the structural hash abstracts."""
 
-    def __init__(self):
+    def __init__(self, change=_perturb_number):
         self.memo: dict[int, object] = {}
         self.keep = []
+        self.change = change
 
     def outside(self, x):
         """Static data outside any topology: containers are copied only to reach one."""
@@ -518,14 +525,14 @@ class _Perturber:
         if not _descends(x):
             return x
         if isinstance(x, (float, complex, np.floating, np.complexfloating)):
-            return type(x)(_perturb_number(x))
+            return type(x)(self.change(x))
         k = id(x)
         if k in self.memo:
             return self.memo[k]
         self.keep.append(x)
         if isinstance(x, np.ndarray):
             if x.dtype.kind in "fc":
-                out = np.asarray(_perturb_number(x), dtype=x.dtype)
+                out = np.asarray(self.change(x), dtype=x.dtype)
             elif x.dtype.hasobject:
                 out = np.empty_like(x)
                 for i, e in enumerate(x.ravel()):
@@ -596,11 +603,12 @@ def _map_treedef(td, f):
     return td.from_node_data_and_children(_tu.default_registry, (t, f(aux)), kids)
 
 
-def perturbed(static, treedef):
+def perturbed(static, treedef, change=_perturb_number):
     """(static arguments, treedef) with every number inside their ``_numbers_are_data`` objects
-    (a System's topology and what it holds) changed: a trace that reads none of them is equal,
-    constant for constant, to the original's (:meth:`CachedJit._numbers_free`)."""
-    p = _Perturber()
+    (a System's topology and what it holds) replaced by ``change(number)``: a trace that reads
+    none of them is equal, constant for constant, to the original's
+    (:meth:`CachedJit.trace_difference`)."""
+    p = _Perturber(change)
     return tuple(p.outside(s) for s in static), p.outside(treedef)
 
 
@@ -854,15 +862,21 @@ class CachedJit:
         perturbed model that fails to trace counts as a difference (when in doubt, miss)."""
         import warnings
 
-        try:
-            s2, td2 = perturbed(static, treedef)
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                j1 = jax.make_jaxpr(self._flat(static, treedef))(*specs)
-                j2 = jax.make_jaxpr(self._flat(s2, td2))(*specs)
-        except Exception as exc:  # noqa: BLE001 (a perturbed model may not trace at all)
-            return f"the perturbed model does not trace: {type(exc).__name__}: {exc}"[:300]
-        return _jaxpr_difference(j1, j2)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            j1, out = jax.make_jaxpr(self._flat(static, treedef), return_shape=True)(*specs)
+            if _holds_data(jax.tree_util.tree_structure(out)):  # a System in the result: its topology is the first model's
+                return "the result holds a model's static data"
+            for change in (_perturb_number, _zero_number):  # two changes: a branch on a sign or on zero shows in one
+                try:
+                    s2, td2 = perturbed(static, treedef, change)
+                    j2 = jax.make_jaxpr(self._flat(s2, td2))(*specs)
+                except Exception as exc:  # noqa: BLE001 (a perturbed model may not trace at all)
+                    return f"the model with its numbers changed ({change.__name__}) does not trace: {type(exc).__name__}: {exc}"[:300]
+                why = _jaxpr_difference(j1, j2)
+                if why:
+                    return why
+        return ""
 
     def _flat(self, static, treedef):
         """``fn`` as a function of the flat leaves of its non-static arguments."""
@@ -913,6 +927,36 @@ def _share_structures() -> bool:
 
 
 _ADDRESS = re.compile(r" at 0x[0-9a-fA-F]+")
+
+
+def _holds_data(td) -> bool:
+    """Whether a pytree structure carries static data with model numbers (``_numbers_are_data``)
+    in a node: a shared executable would hand every model the first one's."""
+    nd = td.node_data()
+    if nd is not None:
+        found = []
+
+        def look(x):
+            if getattr(type(x), "_numbers_are_data", False):
+                found.append(x)
+            return x
+
+        _walk_static(nd[1], look)
+        if found:
+            return True
+    return any(_holds_data(c) for c in td.children())
+
+
+def _walk_static(x, f, depth=0):
+    f(x)
+    if depth > 4:
+        return
+    if isinstance(x, (tuple, list)):
+        for e in x:
+            _walk_static(e, f, depth + 1)
+    elif isinstance(x, dict):
+        for e in x.values():
+            _walk_static(e, f, depth + 1)
 
 
 def _jaxpr_difference(j1, j2) -> str:
