@@ -454,9 +454,10 @@ def load_urdf(
     # per-group mass properties in the top link's axes
     model = Model(name or robot.name or path.stem, gravity=gravity)
     tops = [g for g in dict.fromkeys(group[ln] for ln in order) if g != "ground"]
-    if bounded:
-        gm = {g: sum(link_mass[ln] for ln in order if group[ln] == g) for g in tops}
-        m_bound = BOUND_MASS_FRACTION * min(m for m in gm.values() if m > 0)
+    gm = {g: sum(link_mass[ln] for ln in order if group[ln] == g) for g in tops}
+    if bounded and not any(m > 0 for m in gm.values()):
+        bounded = []  # no link has mass: nothing to scale a bound to (the error below names the link)
+    m_bound = BOUND_MASS_FRACTION * min((m for m in gm.values() if m > 0), default=0.0)
     body_X = {}  # group → world pose of the part frame (COM, top-link axes)
     for g in tops:
         members = [ln for ln in order if group[ln] == g]
@@ -479,7 +480,7 @@ def load_urdf(
                 f"part) and a {sphere_moment(m_bound):.3g} kg m² sphere inertia at its frame origin"
             )
         if M <= 0:
-            what = f"link '{g}'" if len(members) == 1 else f"links {members} (merged by fixed joints)"
+            what = f"link '{g}'" if len(members) == 1 else f"links {members} (merged by fixed joints{' or welded as massless' if welded else ''})"
             raise ModelError(
                 f"{where}: {what} has zero mass (no <inertial> or mass 0) but moves (joint "
                 f"'{parent_joint[g].name if g in parent_joint else 'floating base'}'); proleg parts need mass > 0. "
