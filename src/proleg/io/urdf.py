@@ -50,7 +50,13 @@ import numpy as np
 
 from ..errors import ModelError
 from ..model._validate import inertia_problem as _check_inertia
+from .urdf_feet import mesh_feet, mesh_sphere
 from .urdf_inertia import BOUND_MASS_FRACTION, massless_links, repair_inertia, sphere_moment
+from .urdf_parse import REQUIRED, SUPPORTED, _parse, _resolve_mesh  # noqa: F401 (re-exported)
+
+# Foot contact defaults on top of SphereContact's (load_urdf's docstring says how they were chosen;
+# bench/urdf_friction.py measured them)
+FOOT_CONTACT = {"mu_static": 0.8, "mu_dynamic": 0.8, "v_stiction": 0.01, "v_friction": 0.05}
 
 
 class UrdfWarning(UserWarning):
@@ -129,91 +135,6 @@ def _frame_z(axis):
     from ..spatial.rotation import frame_from_axis
 
     return frame_from_axis(np.asarray(axis, float))
-
-
-# ---------------------------------------------------------------------------------------------
-# parsing
-# ---------------------------------------------------------------------------------------------
-SUPPORTED = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
-# Foot contact defaults on top of SphereContact's (load_urdf's docstring says how they were chosen;
-# bench/urdf_friction.py measured them)
-FOOT_CONTACT = {"mu_static": 0.8, "mu_dynamic": 0.8, "v_stiction": 0.01, "v_friction": 0.05}
-# (element path from <robot>, attribute, how to fix) for the attributes URDF requires
-REQUIRED = (
-    (".", "name", 'Give the robot a name: <robot name="my_robot">.'),
-    ("link", "name", 'Give every link a unique name: <link name="...">.'),
-    ("joint", "name", 'Give every joint a unique name: <joint name="..." type="...">.'),
-    ("joint", "type", "Give the joint a type: revolute, continuous, prismatic, fixed, floating or planar."),
-    ("link/inertial/mass", "value", 'Give the mass in kg: <mass value="1.0"/>.'),
-    (".//geometry/box", "size", 'Give the box size in m: <box size="x y z"/>.'),
-    (".//geometry/cylinder", "radius", 'Give the cylinder radius and length in m: <cylinder radius="r" length="l"/>.'),
-    (".//geometry/cylinder", "length", 'Give the cylinder radius and length in m: <cylinder radius="r" length="l"/>.'),
-    (".//geometry/sphere", "radius", 'Give the sphere radius in m: <sphere radius="r"/>.'),
-    (".//geometry/mesh", "filename", 'Give the mesh file: <mesh filename="package://pkg/meshes/part.stl"/>.'),
-)
-
-
-def _parse(path: Path):
-    try:
-        import yourdfpy
-    except ImportError as exc:  # pragma: no cover
-        raise ModelError("load_urdf needs yourdfpy: pip install 'proleg[urdf]'.") from exc
-    if not path.is_file():
-        raise ModelError(f"URDF file {path} not found. Give the path of an existing .urdf file.")
-    try:
-        from lxml import etree
-
-        root = etree.parse(str(path)).getroot()
-    except Exception as exc:  # lxml.etree.XMLSyntaxError and OSError
-        raise ModelError(f"URDF file {path}: not well-formed XML ({exc}). Fix the XML syntax.") from exc
-    if root.tag != "robot":
-        raise ModelError(f"URDF file {path}: the root element is <{root.tag}>, expected <robot>.")
-    for xpath, attr, fix in REQUIRED:
-        for e in root.iterfind(xpath):
-            if e.get(attr) is None:
-                owner = next((a for a in e.iterancestors() if a.tag in ("link", "joint")), None)
-                within = f" of {owner.tag} '{owner.get('name')}'" if owner is not None and owner is not e else ""
-                raise ModelError(
-                    f"URDF file {path}, line {e.sourceline}: <{e.tag}>{within} has no '{attr}' attribute, which URDF requires. {fix}"
-                )
-    for j in root.findall("joint"):
-        jt = j.get("type")
-        if jt not in SUPPORTED:
-            raise ModelError(
-                f"URDF file {path}: joint '{j.get('name')}' has type '{jt}', which proleg cannot import; "
-                f"supported URDF joint types: {', '.join(SUPPORTED)}."
-            )
-        for tag in ("parent", "child"):
-            e = j.find(tag)
-            if e is None or not e.get("link"):
-                raise ModelError(f"URDF file {path}: joint '{j.get('name')}' has no <{tag} link=...>; every joint needs both.")
-    try:
-        urdf = yourdfpy.URDF.load(
-            str(path), build_scene_graph=False, load_meshes=False, build_collision_scene_graph=False, load_collision_meshes=False
-        )
-    except Exception as exc:
-        raise ModelError(f"URDF file {path} could not be read: {type(exc).__name__}: {exc}.") from exc
-    return urdf.robot
-
-
-def _resolve_mesh(filename: str, urdf_path: Path, package_dirs) -> Path:
-    """Resolve ``package://pkg/rest``, ``file://`` or a relative path against the URDF's folder."""
-    if filename.startswith("file://"):
-        return Path(filename[7:])
-    if filename.startswith("package://"):
-        rest = filename[len("package://") :]
-        pkg, _, sub = rest.partition("/")
-        cands = [Path(d) / pkg / sub for d in (package_dirs or [])] + [Path(d) / sub for d in (package_dirs or [])]
-        for parent in urdf_path.resolve().parents:
-            if parent.name == pkg:
-                cands.append(parent / sub)
-            cands.append(parent / pkg / sub)
-        for c in cands:
-            if c.is_file():
-                return c
-        return cands[0] if cands else Path(sub)
-    p = Path(filename)
-    return p if p.is_absolute() else urdf_path.parent / p
 
 
 def _link_inertial(link):
@@ -409,7 +330,7 @@ def load_urdf(
                 if c.geometry is not None and c.geometry.sphere is not None:
                     feet_d[ln] = None
         if feet is None and not feet_d:
-            feet_d = _mesh_feet(order, links, group, parent_joint, welded, X_W, path, package_dirs, notes)
+            feet_d = mesh_feet(order, links, group, parent_joint, welded, X_W, path, package_dirs, notes)
     elif isinstance(feet, dict):
         feet_d = dict(feet)
     elif isinstance(feet, str):
@@ -427,7 +348,7 @@ def load_urdf(
                 radius, found = float(c.geometry.sphere.radius), True
                 break
         if not found and r is None:
-            fit = _mesh_sphere(links[ln], X_W[ln], path, package_dirs)
+            fit = mesh_sphere(links[ln], X_W[ln], path, package_dirs)
             if fit is not None:
                 center, radius, flat = fit
                 notes.append(
@@ -673,60 +594,6 @@ def _groups(order, parent_joint, welded, root, floating_base):
             if group[ln] == root:
                 group[ln] = "ground"
     return group
-
-
-def _mesh_sphere(link, X_W_link, path, package_dirs):
-    """(centre (3,) in the link frame, radius, flat) of the sphere fitted to the link's collision
-    meshes (urdf_feet), or None without a readable mesh."""
-    from .urdf_feet import fit_foot_sphere, mesh_vertices
-
-    V, _ = mesh_vertices(link, X_W_link, path, package_dirs)
-    if V is None:
-        return None
-    c, r, flat = fit_foot_sphere(V)
-    return (np.linalg.inv(X_W_link) @ np.append(c, 1.0))[:3], r, flat
-
-
-def _mesh_feet(order, links, group, parent_joint, welded, X_W, path, package_dirs, notes):
-    """Feet of a floating robot without collision spheres: the collision meshes of its leaf parts
-    that reach within FOOT_BAND of the robot's lowest collision point, one per part (urdf_feet),
-    as {link: None}."""
-    from .urdf_feet import FOOT_BAND, lowest_point, mesh_vertices
-
-    moving_child = {group[j.parent] for ln, j in parent_joint.items() if j.type != "fixed" and j.name not in welded}
-    lowest, why, z_all = {}, [], []
-    cache: dict = {}
-    for ln in order:
-        if not links[ln].collisions:
-            continue
-        z_prim = lowest_point(links[ln], X_W[ln])  # boxes, cylinders, spheres
-        if z_prim is not None:
-            z_all.append(z_prim)
-        if not any(c.geometry is not None and c.geometry.mesh is not None for c in links[ln].collisions):
-            continue
-        V, err = mesh_vertices(links[ln], X_W[ln], path, package_dirs, cache)
-        if V is None:
-            why.append(f"'{ln}': {err}")
-            continue
-        z = float(V[:, 2].min())
-        z_all.append(z)
-        g = group[ln]
-        if g == "ground" or g in moving_child or g == group[order[0]]:
-            continue  # feet are on the leaf parts
-        if g not in lowest or z < lowest[g][1]:
-            lowest[g] = (ln, z)
-    if why:
-        notes.append("foot search skipped collision meshes it could not read: " + "; ".join(why))
-    if not lowest:
-        return {}
-    z_min = min(z_all)
-    feet = {ln: None for ln, z in lowest.values() if z <= z_min + FOOT_BAND}
-    if not feet:
-        notes.append(
-            "no feet found: no collision sphere, and no leaf part's collision mesh is the robot's lowest collision shape; "
-            "give feet=[link names] (a sphere is fitted to each one's collision mesh) or feet={link: radius}"
-        )
-    return feet
 
 
 def _axis(j):

@@ -39,7 +39,7 @@ def mesh_vertices(link, X_W_link, urdf_path, package_dirs, cache=None):
     """Ground-frame vertices (n, 3) of every collision mesh of ``link`` at its pose ``X_W_link``
     (4, 4), or (None, why) when there is no mesh or one cannot be read. ``cache``: a dict file →
     vertices shared between calls (robots reuse a mesh for every leg)."""
-    from .urdf import _resolve_mesh
+    from .urdf_parse import _resolve_mesh
 
     out = []
     for c in link.collisions or []:
@@ -106,3 +106,53 @@ def fit_foot_sphere(V):
     if flat:
         r = r_max
     return np.array([xy[0], xy[1], z0 + r]), r, flat
+
+
+def mesh_sphere(link, X_W_link, path, package_dirs):
+    """(centre (3,) in the link frame, radius, flat) of the sphere fitted to the link's collision
+    meshes (urdf_feet), or None without a readable mesh."""
+    V, _ = mesh_vertices(link, X_W_link, path, package_dirs)
+    if V is None:
+        return None
+    c, r, flat = fit_foot_sphere(V)
+    return (np.linalg.inv(X_W_link) @ np.append(c, 1.0))[:3], r, flat
+
+
+def mesh_feet(order, links, group, parent_joint, welded, X_W, path, package_dirs, notes):
+    """Feet of a floating robot without collision spheres: the collision meshes of its leaf parts
+    that reach within FOOT_BAND of the robot's lowest collision point, one per part (urdf_feet),
+    as {link: None}."""
+    moving_child = {group[j.parent] for ln, j in parent_joint.items() if j.type != "fixed" and j.name not in welded}
+    lowest, why, z_all = {}, [], []
+    cache: dict = {}
+    for ln in order:
+        if not links[ln].collisions:
+            continue
+        z_prim = lowest_point(links[ln], X_W[ln])  # boxes, cylinders, spheres
+        if z_prim is not None:
+            z_all.append(z_prim)
+        if not any(c.geometry is not None and c.geometry.mesh is not None for c in links[ln].collisions):
+            continue
+        V, err = mesh_vertices(links[ln], X_W[ln], path, package_dirs, cache)
+        if V is None:
+            why.append(f"'{ln}': {err}")
+            continue
+        z = float(V[:, 2].min())
+        z_all.append(z)
+        g = group[ln]
+        if g == "ground" or g in moving_child or g == group[order[0]]:
+            continue  # feet are on the leaf parts
+        if g not in lowest or z < lowest[g][1]:
+            lowest[g] = (ln, z)
+    if why:
+        notes.append("foot search skipped collision meshes it could not read: " + "; ".join(why))
+    if not lowest:
+        return {}
+    z_min = min(z_all)
+    feet = {ln: None for ln, z in lowest.values() if z <= z_min + FOOT_BAND}
+    if not feet:
+        notes.append(
+            "no feet found: no collision sphere, and no leaf part's collision mesh is the robot's lowest collision shape; "
+            "give feet=[link names] (a sphere is fitted to each one's collision mesh) or feet={link: radius}"
+        )
+    return feet
