@@ -959,6 +959,27 @@ def _walk_static(x, f, depth=0):
             _walk_static(e, f, depth + 1)
 
 
+def jaxpr_consts(closed) -> list:
+    """The constants of a ClosedJaxpr and of every jaxpr nested in its equations (loop bodies,
+    branches, inner jits), in order: a number can hide in any of them."""
+    from jax.extend.core import ClosedJaxpr, Jaxpr
+
+    out, stack = [], [closed]
+    while stack:
+        j = stack.pop()
+        if isinstance(j, ClosedJaxpr):
+            out += list(j.consts)
+            j = j.jaxpr
+        nested = []
+        for eqn in j.eqns:
+            for v in eqn.params.values():
+                for x in (v if isinstance(v, (tuple, list)) else (v,)):
+                    if isinstance(x, (ClosedJaxpr, Jaxpr)):
+                        nested.append(x)
+        stack.extend(reversed(nested))
+    return out
+
+
 def _jaxpr_difference(j1, j2) -> str:
     """"" when two closed jaxprs are the same computation with the same constants, else what differs."""
     a, b = _ADDRESS.sub("", str(j1.jaxpr)), _ADDRESS.sub("", str(j2.jaxpr))
@@ -966,9 +987,10 @@ def _jaxpr_difference(j1, j2) -> str:
         la, lb = a.splitlines(), b.splitlines()
         i = next((k for k, (x, y) in enumerate(zip(la, lb)) if x != y), min(len(la), len(lb)))
         return f"equation {i} differs: {la[i].strip()[:160] if i < len(la) else '(end)'}"
-    if len(j1.consts) != len(j2.consts):
+    c1, c2 = jaxpr_consts(j1), jaxpr_consts(j2)
+    if len(c1) != len(c2):
         return "constant count differs"
-    for i, (x, y) in enumerate(zip(j1.consts, j2.consts)):
+    for i, (x, y) in enumerate(zip(c1, c2)):
         x, y = np.asarray(x), np.asarray(y)
         if x.shape != y.shape or x.dtype != y.dtype or x.tobytes() != y.tobytes():
             return f"constant {i} {x.dtype}{list(x.shape)} differs"
