@@ -355,10 +355,10 @@ def spawn_reruns_main() -> str | None:
     name = data.get("init_main_from_name")
     if name is not None:
         return None if name == "__main__" or name.endswith(".__main__") else path
-    main_path = data.get("init_main_from_path")
+    main_path = data.get("init_main_from_path")  # made absolute from the start directory (a later chdir)
     if main_path is None or os.path.splitext(os.path.basename(main_path))[0] == "ipython":
         return None
-    return path
+    return main_path
 
 
 def unguarded_main_line() -> str | None:
