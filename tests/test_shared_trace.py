@@ -295,3 +295,23 @@ def test_a_branch_on_zero_is_found_when_no_model_seen_is_zero(cache):
     for o in (2.0, 3.0, 0.0):
         want = np.asarray(x) if o == 0 else np.asarray(x) + np.sin(np.asarray(x))
         np.testing.assert_allclose(_skips_zero(Box(x, Holder(1.0, o))), want, rtol=1e-15)
+
+
+def test_simulation_key_groups_designs_without_tracing_each():
+    """Two link lengths share a simulation key (decided once), a third link does not; a run that
+    reads a number of the topology (here the first part's mass, read in Python) gets none."""
+    from proleg.analyses.structure import simulation_key
+
+    def run(s):
+        r = pl.simulate(s, t_end=0.05, dt_output=0.01, progress=False, throw=False)
+        return r.q
+
+    a, b = pl.assemble(readme_pendulum(1.0)), pl.assemble(readme_pendulum(1.2))
+    ka = simulation_key(a, run)
+    assert ka is not None and simulation_key(b, run) == ka
+    assert simulation_key(pl.assemble(readme_pendulum(1.0, links=3)), run) not in (None, ka)
+
+    def reads_mass(s):
+        return run(s) * s.topo.model.parts[0].mass
+
+    assert simulation_key(a, reads_mass) is None

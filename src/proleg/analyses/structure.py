@@ -128,3 +128,56 @@ def design_gradient(build, design: dict, metric, names=None, *, rel_step: float 
         value, d = jvp(s0.params, dP)
         out[name] = float(d)
     return (float(value) if value is not None else float(f(s0.params))), out
+
+
+_SIMULATION_VERDICTS: dict[str, bool] = {}
+
+
+def simulation_key(system: System, run) -> str | None:
+    """A key shared by every System whose ``run(system)`` (a simulation and what it returns) is
+    one computation with its ``params`` as the arguments, or None where that does not hold.
+
+    The key is the structure fingerprint of the System's pytree structure and of ``run`` (its
+    code and closure, hashed exactly); the first System of a key decides, once per process: its
+    trace is compared with the traces of copies whose every topology number is changed
+    (:func:`proleg.compile_cache.perturbed`). A builder study groups its designs by this key at
+    the cost of a hash per design instead of a trace (issue 42). None when the run reads a
+    number of the topology, or cannot be keyed or traced."""
+    import jax
+
+    from .. import compile_cache as cc
+
+    leaves, td = jax.tree_util.tree_flatten(system)
+    try:
+        key = cc.structure_fingerprint(cc._environment_key(), td, tuple(cc._aval(x) for x in leaves), run)
+    except (cc.Unkeyable, TypeError):
+        return None
+    free = _SIMULATION_VERDICTS.get(key)
+    if free is None:
+        free = _run_reads_no_numbers(system, run)
+        _SIMULATION_VERDICTS[key] = free
+    return key if free else None
+
+
+def _run_reads_no_numbers(system: System, run) -> bool:
+    import warnings
+
+    import jax
+
+    from .. import compile_cache as cc
+
+    leaves, td = jax.tree_util.tree_flatten(system)
+
+    def traced(treedef):
+        return jax.make_jaxpr(lambda lv: run(jax.tree_util.tree_unflatten(treedef, lv)))(leaves)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            j1 = traced(td)
+            for change in (cc._perturb_number, cc._zero_number):
+                if cc._jaxpr_difference(j1, traced(cc.perturbed((), td, change)[1])):
+                    return False
+        except Exception:  # noqa: BLE001 (not traceable here, or a changed model that does not trace)
+            return False
+    return True
