@@ -475,8 +475,8 @@ def auto_coordinates(system: System) -> tuple[str, str]:
     longer; with cut joints (closed loops) they cost about twice as much per step as planar or
     absolute coordinates; FLEGX's tendon-rod loops leave joint coordinates with free degrees of
     freedom (ModelError). Floating-base trees are the other way round: absolute coordinates give
-    every leg link 7 coordinates and 5 joint rows (HyQ: 91 coordinates + 77 rows against 19
-    coordinates + 1 row), so the Newton matrix of a whole quadruped is ~9× larger, and joint
+    every leg link 7 coordinates and 5 joint rows (HyQ: 91 coordinates + 73 rows against 19
+    coordinates + 1 row), so the Newton matrix of a whole quadruped is ~8× larger, and joint
     coordinates are several times faster per step and to compile, contacts, servos and
     actuators included."""
     basis, why = getattr(system.topo, "planar", (None, "not checked"))

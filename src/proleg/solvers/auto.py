@@ -21,8 +21,8 @@ bushings, flexible bodies, controllers, actuators,    error-controlled, numerica
 stiff springs, closed loops at ordinary tolerances
 ====================================================  ==========================================
 
-Why the floating-base row: in absolute coordinates a quadruped's Newton matrix is ~9× larger
-(HyQ: 91 coordinates + 77 joint rows against 19 + 1) and was rebuilt every step; in joint
+Why the floating-base row: in absolute coordinates a quadruped's Newton matrix is ~8× larger
+(HyQ: 91 coordinates + 73 rows against 19 + 1) and was rebuilt every step; in joint
 coordinates with the matrix kept (rebuilt when Newton contracts slowly or h moves) a step
 costs tens of times less and compiles faster (bench/results/whole_robot.md). The error
 estimate stays on positions: with ``error_on="positions+velocities"`` a Go1 standing 1 s took
