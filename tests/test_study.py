@@ -141,6 +141,22 @@ def test_a_batch_that_runs_another_method_says_so(system):
     assert tab["x_end"].iloc[1] == pytest.approx(float(ref.part("lower").position[-1, 0]), rel=1e-9)
 
 
+def test_stored_rows_without_their_method_are_flagged(system, tmp_path):
+    """A store written before rows recorded their method (its batches ran generalized-alpha,
+    not simulate's choice) resumed now would mix methods: a warning says so."""
+    import pyarrow.parquet as pq
+
+    st = make_study(system)
+    st.run(design="grid", n=2, executor="vmap", workers=1, store=tmp_path / "s", progress=False)
+    for f in (tmp_path / "s" / "rows").glob("part-*.parquet"):  # as an earlier proleg wrote it
+        t = pq.read_table(f)
+        pq.write_table(t.drop(["integrator", "integrator_note", "batch_wall_s"]), f)
+    with pytest.warns(pl.ProlegWarning, match=r"4 stored row\(s\) do not record their method.*new store"):
+        tab = st.run(design="grid", n=3, executor="vmap", workers=1, store=tmp_path / "s", progress=False)
+    recorded = tab["integrator"].dropna()
+    assert len(tab) == 6 and len(recorded) == 2 and tab.attrs["integrators"] == {recorded.iloc[0]: 2}
+
+
 def test_local_batches_are_batch_size_designs(system):
     """``executor="local", batch_size=1``: one design per batch (it gave two: "local" ran its
     default two workers' batches in one call). ``wall_s`` is the design's share of its batch's

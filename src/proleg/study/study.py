@@ -319,6 +319,15 @@ def _integrator_attrs(table: pd.DataFrame, name: str) -> None:
         return
     used = table["integrator"].fillna("").astype(str)
     table.attrs["integrators"] = {k: int(v) for k, v in used[used != ""].value_counts().items()}
+    # rows read from a store written before the method was recorded (batches then ran
+    # generalized-alpha where no integrator was named), beside rows that record theirs
+    ran = ~table["status"].isin(["build_error", "error", "worker_died"])
+    old = int((ran & (used == "")).sum())
+    if old and (used != "").any():
+        warnings.warn(f"Study '{name}': {old} stored row(s) do not record their method (stored by an earlier proleg, whose batches "
+                      f"ran GeneralizedAlpha where no integrator was named), beside rows that ran {sorted(table.attrs['integrators'])}: "
+                      "the table may mix methods. Run the study into a new store to have every row be simulate()'s answer.",
+                      ProlegWarning, stacklevel=4)
     notes = table["integrator_note"].fillna("").astype(str) if "integrator_note" in table.columns else pd.Series([], dtype=str)
     table.attrs["integrator_notes"] = sorted(set(notes[notes != ""]))
     for note in table.attrs["integrator_notes"]:
