@@ -99,7 +99,8 @@ def test_no_integrator_named_gives_simulates_answer(system):
     assert res.integrator_note is None
     for i in range(3):
         ref = pl.simulate(system.with_params({k: v[i] for k, v in values.items()}), progress=False, **AUTO_KW)
-        assert ref.stats["integrator"] == res.integrator.describe()
+        assert ref.stats["integrator"] == res.integrator.describe() == res[i].stats["integrator"]
+        assert res[i].stats["integrator_reason"] == ref.stats["integrator_reason"]
         assert int(res.stats["steps"][i]) == ref.stats["steps"]
         # round-off only (issue 42's target, 1e-9 relative; measured 1e-13): the batch's arithmetic
         # is the single run's, vectorised, so its adaptive steps are the same steps

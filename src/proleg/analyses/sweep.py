@@ -141,6 +141,9 @@ class SweepResult:
             integrator=self.integrator,
         )
         r.coordinates = self.coordinates
+        if hasattr(self.integrator, "describe"):  # as simulate's result says what ran and why
+            r.stats["integrator"] = self.integrator.describe()
+            r.stats["integrator_reason"] = self.integrator_reason if self.integrator_note is None else self.integrator_note
         return r
 
     def to_frame(self):
