@@ -12,11 +12,11 @@ region, the part of the foot that touches the ground:
    the lowest point and horizontal distance ρ from the cap's axis, a sphere of radius r gives
    ρ² = 2 r z − z², so r = Σ z (ρ² + z²) / (2 Σ z²) (least squares); the centre is r above the
    lowest point, under the cap's horizontal centroid;
-4. a flat sole gives a large r: above :data:`FLAT_RATIO` times half the mesh's largest
-   horizontal extent the foot is called flat and r is set to that half extent, so the sphere is
-   no larger than the foot (a flat foot is poorly modelled by one sphere; the note says so).
-   A convex-hull foot is not exactly round (Go2's is 45 × 40 × 39 mm and its cap fits
-   r = 24 mm), hence the margin.
+4. r is at most half the mesh's largest extent (the sphere is no larger than the foot): a
+   convex-hull foot is not exactly round (Go2's is 45 × 40 × 39 mm, and its cap fits 24 mm at
+   the zero pose, 32 mm at the standing pose, where the foot is turned), so the fit is clamped
+   to 22.7 mm there. A flat sole fits a far larger r: above :data:`FLAT_RATIO` times the bound
+   the foot is called flat (one sphere under its centre is a rough model; the note says so).
 
 Which links are feet (``feet=None`` on a floating base, and no link has a collision sphere):
 the links of the leaf parts (no moving joint below them) whose collision meshes reach within
@@ -31,7 +31,7 @@ import numpy as np
 
 CAP_FRACTION = 0.25  # [-] of the mesh's vertical extent
 CAP_MAX = 0.02  # [m] at most this high a cap
-FLAT_RATIO = 2.0  # [-] a fitted radius above this × half the foot's width: a flat foot
+FLAT_RATIO = 2.0  # [-] a fitted radius above this × half the foot's largest extent: a flat foot
 FOOT_BAND = 0.02  # [m] feet reach within this of the lowest collision point
 
 
@@ -99,12 +99,11 @@ def fit_foot_sphere(V):
     xy = cap[:, :2].mean(axis=0)
     z = cap[:, 2] - z0
     rho2 = ((cap[:, :2] - xy) ** 2).sum(axis=1)
-    r_max = 0.5 * float(np.ptp(V[:, :2], axis=0).max())
+    r_max = 0.5 * float(np.ptp(V, axis=0).max())
     den = 2.0 * (z * z).sum()
     r = float((z * (rho2 + z * z)).sum() / den) if den > 0 else np.inf
     flat = not (np.isfinite(r) and r <= FLAT_RATIO * r_max)
-    if flat:
-        r = r_max
+    r = min(r, r_max)
     return np.array([xy[0], xy[1], z0 + r]), r, flat
 
 

@@ -5,6 +5,8 @@ DAE); robotics tools (Pinocchio, controllers, URDF) speak joint space: a floatin
 and velocity plus one coordinate per joint. :func:`joint_space_state` maps a joint-space state,
 in Pinocchio's free-flyer convention, to the consistent absolute (q, v, q̈), and
 :func:`joint_space_jacobian` gives J = ∂v/∂ν, so that the joint-space mass matrix is Jᵀ M J.
+:func:`set_initial_velocity` (also ``load_urdf(initial_velocities=..., base_velocity=...)``)
+gives a loaded model initial joint rates and a base twist through the same map.
 
 Conventions (Pinocchio's ``JointModelFreeFlyer``): base pose = root-link frame origin in ground
 and its orientation (unit quaternion, **scalar first** here); base velocity ν_b = (v, ω) of the
