@@ -315,3 +315,23 @@ def test_simulation_key_groups_designs_without_tracing_each():
         return run(s) * s.topo.model.parts[0].mass
 
     assert simulation_key(a, reads_mass) is None
+
+
+@pytest.mark.parametrize("name", ["double_pendulum.yaml", "four_bar.yaml"])
+def test_the_example_model_files_read_no_number_in_their_trace(name):
+    """The docs' model files (examples/): their physics reads its numbers from params only, and a
+    copy with another gravity and part masses is the same structure."""
+    from pathlib import Path
+
+    from proleg.io.modelfile import load_model
+
+    path = Path(__file__).resolve().parents[1] / "examples" / name
+
+    def changed():
+        m = load_model(path)
+        m.gravity = np.array([0.0, 0.0, -9.0])
+        for p in m.parts:
+            p.mass = 1.1 * p.mass
+        return m
+
+    _check_builder(lambda: load_model(path), changed)
