@@ -12,6 +12,7 @@ batch comes back: a batch lost with a killed worker is run again, never written 
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import math
 import os
@@ -92,14 +93,21 @@ def _shape_key(system, simulate_kw: dict) -> str:
     so a longer link does not change them), Python branches on static values. Names (parts,
     markers, elements, joints) are in the key because outputs look them up.
 
-    Cost: one trace of the simulation per build (about one ``assemble``: seconds), no compilation. A build whose trace
-    fails gets a key of its own (its sweep then reports the error in its row)."""
+    Cost: a hash per build where the structure's simulation reads no number of its topology
+    (:func:`proleg.analyses.structure.simulation_key`, decided by one perturbed-trace check per
+    structure: issue 42), else one trace of the simulation per build (about one ``assemble``:
+    seconds); no compilation. A build whose trace fails gets a key of its own (its sweep then
+    reports the error in its row)."""
     import jax
 
     from ..analyses.simulate import simulate, simulate_kwargs
+    from ..analyses.structure import simulation_key
     from ..assembly.system import System
 
     topo, kw = system.topo, simulate_kwargs(simulate_kw)
+    skey = simulation_key(system, functools.partial(_simulated, kw=tuple(sorted(kw.items()))))
+    if skey is not None:  # names, shapes and every static number are in the structure key
+        return "structure-" + skey
     h = hashlib.sha1()
     names = [topo.name, topo.body_names, topo.marker_names, [getattr(j, "name", "") for j in topo.joints],
              [(g.kind, list(g.names)) for g in topo.groups + topo.extensions],
@@ -120,6 +128,15 @@ def _shape_key(system, simulate_kw: dict) -> str:
         h.update(f"{a.shape}{a.dtype}".encode())
         h.update(np.ascontiguousarray(a).tobytes() if a.dtype != object else repr(a).encode())
     return h.hexdigest()
+
+
+def _simulated(system, kw):
+    """What a build's simulation returns for grouping (:func:`_shape_key`): a module-level
+    function of the System alone, so that its structure key holds no build's topology."""
+    from ..analyses.simulate import simulate
+
+    r = simulate(system, progress=False, throw=False, **dict(kw))
+    return r.q, r.v, r.w, r.z, *r.traced_status
 
 
 def _jaxpr_consts(closed) -> list:
