@@ -124,6 +124,10 @@ class PlanarBasis:
             self.P_w[r, : len(z)] = self.P[r, z]
         self._pick = Select(self.P_idx.reshape(-1), self.P.shape[1])
 
+    def __repr__(self):  # the arrays are hundreds of numbers: say what the basis is
+        n = np.round(self.normal, 6) + 0.0
+        return f"PlanarBasis(normal={n.tolist()}, {self.P.shape[0]} planar rows of {self.P.shape[1]})"
+
     def combine(self, phi):
         """P @ phi."""
         return jnp.sum(jnp.asarray(self.P_w) * (self._pick @ phi).reshape(self.P_idx.shape), 1)

@@ -99,6 +99,10 @@ class JointTree:
     cut: list  # names of the cut joints
     why: str = "joint"
 
+    def __repr__(self):
+        return (f"JointTree({self.nq} coordinates, {len(self.parent)} parts, {self.floating.size} floating bases, "
+                f"cut joints {self.cut})")
+
     @property
     def nq(self) -> int:
         return int(self.dof_body.size)

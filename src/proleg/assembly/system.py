@@ -61,6 +61,11 @@ class Topology:
     dof: dict = field(default_factory=dict)
     joint_tree: object = None  # joint_coordinates.JointTree (built on first use of coordinates="joint")
 
+    def __repr__(self):  # a dataclass repr would print every index array and the whole model
+        kinds = ", ".join(f"{len(g)} {g.kind}" for g in self.groups + self.extensions if _len(g))
+        return (f"Topology({self.name!r}: {self.nbody} parts, {len(self.joints)} joints, {self.nc} constraint rows"
+                + (f", {kinds}" if kinds else "") + (f", {self.n_eta} modal coordinates" if self.n_eta else "") + ")")
+
     @property
     def nbody(self) -> int:
         return len(self.body_names)
@@ -78,6 +83,13 @@ class Topology:
             if g.kind == kind:
                 return g
         return None
+
+
+def _len(group) -> int:
+    try:
+        return len(group)
+    except TypeError:
+        return len(getattr(group, "elements", ()))
 
 
 @jax.tree_util.register_pytree_node_class
