@@ -140,24 +140,10 @@ def _simulated(system, kw):
 
 
 def _jaxpr_consts(closed) -> list:
-    """The constants of a ClosedJaxpr and of every jaxpr nested in its equations (loop bodies,
-    branches, inner jits), in order."""
-    from jax.extend.core import ClosedJaxpr, Jaxpr
+    """The constants of a ClosedJaxpr and of every jaxpr nested in it (compile_cache.jaxpr_consts)."""
+    from ..compile_cache import jaxpr_consts
 
-    out, stack = [], [closed]
-    while stack:
-        j = stack.pop()
-        if isinstance(j, ClosedJaxpr):
-            out += list(j.consts)
-            j = j.jaxpr
-        nested = []
-        for eqn in j.eqns:
-            for v in eqn.params.values():
-                for x in (v if isinstance(v, (tuple, list)) else (v,)):
-                    if isinstance(x, (ClosedJaxpr, Jaxpr)):
-                        nested.append(x)
-        stack += reversed(nested)
-    return out
+    return jaxpr_consts(closed)
 
 
 def _row(key, vals, batch, worker):
