@@ -19,3 +19,18 @@ def spring_pendulum(name: str = "spring_pendulum"):
     anchor = m.add_marker(m.ground, "anchor", position=(2, 0, -1))
     m.add_force(pl.SpringDamper("spring", tip, anchor, stiffness=50.0, damping=0.5, free_length=1.0))
     return pl.assemble(m)
+
+
+def robot_path(rel):
+    """A URDF or SRDF shipped by example-robot-data (its cmeel prefix), ``rel`` below its robots/
+    folder; the test is skipped where the package is not installed."""
+    import sys
+    from pathlib import Path
+
+    import pytest
+
+    for base in sys.path:
+        p = Path(base) / "cmeel.prefix" / "share" / "example-robot-data" / "robots" / rel
+        if p.is_file():
+            return p
+    pytest.skip(f"example-robot-data is not installed (no {rel}): pip install -e .[test]")

@@ -26,6 +26,7 @@ pin = pytest.importorskip("pinocchio", reason="Pinocchio (pip package 'pin') is 
 
 import proleg as pl  # noqa: E402
 from proleg.io.urdf import UrdfWarning, load_urdf  # noqa: E402
+from models import robot_path as robot_file  # noqa: E402
 from proleg.io.urdf_kin import joint_space_state  # noqa: E402
 
 #: robot: (URDF, SRDF) below example-robot-data's robots/ folder
@@ -39,14 +40,6 @@ ROBOTS = {
 }
 #: the issue's bound for free flight at the defaults (orientation of every part [rad]; positions [m])
 FLIGHT_TOL = 1e-6
-
-
-def robot_file(rel):
-    for base in sys.path:
-        p = Path(base) / "cmeel.prefix" / "share" / "example-robot-data" / "robots" / rel
-        if p.is_file():
-            return p
-    pytest.skip(f"example-robot-data is not installed (no {rel}): pip install -e .[test]")
 
 
 def srdf_stand(path) -> dict:

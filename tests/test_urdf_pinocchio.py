@@ -29,21 +29,11 @@ from proleg.io.urdf import UrdfWarning, load_urdf  # noqa: E402
 from proleg.io.urdf_kin import joint_space_jacobian, joint_space_state  # noqa: E402
 from proleg.model.control import JointActuator  # noqa: E402
 from proleg.solvers.initial import kkt_accelerations, mass_matrix  # noqa: E402
+from models import robot_path  # noqa: E402
 
 # Both quantities are float64 results of O(n) recursions (Pinocchio) vs dense KKT solves
 # (proleg) on ~90 coordinates; measured ~1e-15. 1e-8 is the issue's bound.
 RTOL = 1e-8
-
-
-def robot_path(rel):
-    """A URDF shipped by example-robot-data (its cmeel prefix), or skip."""
-    import sys
-
-    for base in sys.path:
-        p = Path(base) / "cmeel.prefix" / "share" / "example-robot-data" / "robots" / rel
-        if p.is_file():
-            return p
-    pytest.skip(f"example-robot-data is not installed (no {rel}): pip install -e .[test]")
 
 
 @pytest.mark.parametrize(
