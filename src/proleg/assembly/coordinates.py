@@ -441,6 +441,11 @@ def floating_tree(system: System) -> tuple[bool, str]:
     parent, joint, _, _ = _spanning_tree(topo)
     if not np.any(parent == -1):
         return False, "no floating base"
+    nb = topo.nbody
+    if not any(0 <= parent[b] < nb and parent[parent[b]] == -1 for b in range(nb)):
+        # free parts, none carrying a jointed part (a block on bushings beside a pendulum): not a
+        # robot on a floating base; its joint coordinates are its absolute ones
+        return False, "free parts without jointed parts hanging from them"
     in_tree = {id(joint[b][1]) for b in range(topo.nbody) if parent[b] >= 0}
     cut = [j.name for j in topo.joints if id(j) not in in_tree]
     if cut:
