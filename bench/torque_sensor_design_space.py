@@ -1,4 +1,4 @@
-"""Design space of the final torque-sensor concept (issue 17): a 1-D scan of one dimension (default
+"""Design space of the open-links torque-sensor concept (issue 17; the `final` concept before issue 44): a 1-D scan of one dimension (default
 the neck width, the gauge section) with the others at their defaults, and which constraint binds.
 
     PYTHONPATH=src python bench/torque_sensor_design_space.py [--name neck_width] [--values 4,5,6,7] [--mesh 6]
@@ -22,11 +22,11 @@ from proleg.robots.torque_sensor import DEFAULTS
 
 if __name__ == "__main__":
     ap = argparse.ArgumentParser()
-    ap.add_argument("--name", default="neck_width", help="a dimension of the final concept")
+    ap.add_argument("--name", default="neck_width", help="a dimension of the open_links concept")
     ap.add_argument("--values", default="4,5,5.5,6,7", help="values [mm]")
     ap.add_argument("--mesh", type=float, default=6.0, help="element size [mm]")
     a = ap.parse_args()
-    d = DEFAULTS["final"]
+    d = DEFAULTS["open_links"]
     base = dict(link_width=d["link_width"], neck_ratio=d["neck_width"] / d["link_width"], r_link=d["r_link"],
                 thickness=d["thickness"])
     t0 = time.perf_counter()

@@ -63,12 +63,13 @@ def test_tension_links_equilibrium_and_bidirectionality():
 
 @pytest.mark.parametrize("concept, dims, match", [
     ("spokes", dict(r_hub=0.031), "r_ring"),  # hub beyond the ring: self-intersection
-    ("final", dict(neck_width=0.008), "neck_width"),  # neck wider than the link
-    ("final", dict(r_link=0.016), "r_link"),  # link outside the hub
+    ("open_links", dict(neck_width=0.008), "neck_width"),  # neck wider than the link
+    ("open_links", dict(r_link=0.016), "r_link"),  # link outside the hub
     ("tension_links", dict(link_width=0.0015), "link_width"),  # wall thinner than half the mesh
     ("hollow", dict(wall=0.0015), "wall"),
     ("spokes", dict(r_out=0.05), "r_out"),  # outside the envelope
-    ("final", dict(neck_length=0.0055), "free length"),  # neck + the end mill's arcs longer than the link
+    ("open_links", dict(neck_length=0.0055), "free length"),  # neck + the end mill's arcs longer than the link
+    ("final", dict(spoke_width=0.008), "spoke_width"),  # the final concept is a spoke sensor: 8 spokes overlap
 ])
 def test_bad_geometry_names_the_parameter(concept, dims, match):
     with pytest.raises(ModelError, match=match):
@@ -85,7 +86,8 @@ def test_zero_torque_is_refused():
     (dict(cases=("B",)), "cases"),
     (dict(mesh_size=-0.001), "mesh_size"),
     (dict(concept="bellows"), "bellows"),
-    (dict(spoke_width=0.005), "spoke_width"),  # a dimension of another concept
+    (dict(link_width=0.005), "link_width"),  # a dimension of another concept
+    (dict(neck_width=0.005), "open_links"),  # the final concept before issue 44: the error names its new name
 ])
 def test_bad_analysis_options_name_the_parameter(kw, match):
     with pytest.raises(ModelError, match=match):

@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import ConvergenceError, ModelError
-from .torque_sensor import GRID, sensor_design
+from .torque_sensor import FILLET_SIZE, GRID, sensor_design
 
 
 @dataclass
@@ -123,7 +123,7 @@ def torque_sensor_analysis(concept: str = "final", torque: float = 140.0, mesh_s
                            gauge_factor: float = 2.0, clearance: float = 0.006, flatness_tol: float = 5e-6,
                            interface_band: float = 0.002, stress_stiffening: bool = True, refine_gauges: bool = True,
                            interface: str = "rigid", cases: tuple = ("A", "B"), geometry_checks: bool = True,
-                           curvature_points: int = 0, fillet_size: float = 0.35, layers: int | None = None,
+                           curvature_points: int = 0, fillet_size: float | None = None, layers: int | None = None,
                            envelope: dict | None = None, **dimensions) -> SensorResult:
     """FE analysis of one torque-sensor design (seed 001 Problem 2).
 
@@ -149,8 +149,10 @@ def torque_sensor_analysis(concept: str = "final", torque: float = 140.0, mesh_s
     curvature_points : int        hollow concept only: gmsh elements per 2 pi of curvature (0: sizes from
                                   mesh_size and h_min = mesh_size / 4 only)
     fillet_size : [-]             disc concepts: element size at the fillets as a fraction of their radius
-                                  (swept mesh, :func:`proleg.fem.mesh.mesh_extruded`; 0.35: three P2
-                                  elements along a quarter arc; see the mesh convergence)
+                                  (swept mesh, :func:`proleg.fem.mesh.mesh_extruded`; default per concept,
+                                  :data:`proleg.robots.torque_sensor.FILLET_SIZE`: 0.35, three P2 elements
+                                  along a quarter arc, or 0.175 for the final concept's 2 mm fillets; see the
+                                  mesh convergence)
     layers : int                  disc concepts: element layers through the thickness (default
                                   max(1, round(thickness / (2 mesh_size))))
     geometry_checks : bool        run the gauge-face planarity / clearance checks (gmsh, ~2 s); False
@@ -172,6 +174,11 @@ def torque_sensor_analysis(concept: str = "final", torque: float = 140.0, mesh_s
         raise ModelError(f"torque_sensor_analysis cases = {cases!r}; use ('A', 'B') or ('A',).")
     T = abs(float(torque))
     design = sensor_design(concept, mesh_size, envelope=envelope, **dimensions)
+    if fillet_size is None:
+        fillet_size = FILLET_SIZE[concept]
+    if not (isinstance(fillet_size, int | float) and math.isfinite(fillet_size) and fillet_size > 0):
+        raise ModelError(f"torque_sensor_analysis fillet_size = {fillet_size!r} must be a positive fraction of the "
+                         "fillet radius (e.g. 0.35).")
     t0 = time.perf_counter()
     h = design.mesh_size
     refine = [(g.center, 0.004, h / 2) for g in design.gauges] if refine_gauges else None
@@ -305,7 +312,7 @@ def mesh_convergence(concept: str = "final", sizes=(0.006, 0.005, 0.004, 0.003),
         if fillet_sizes is not None:
             kw["fillet_size"] = fillet_sizes[i]
         m = torque_sensor_analysis(concept, mesh_size=h, **kw).metrics
-        rows.append({"fillet_size": kw.get("fillet_size", math.nan)} | {k: m[k] for k in ("mesh_size", "n_dofs", "gauge_strain", "max_von_mises", "max_von_mises_radius_mm",
+        rows.append({"fillet_size": kw.get("fillet_size", FILLET_SIZE.get(concept, math.nan))} | {k: m[k] for k in ("mesh_size", "n_dofs", "gauge_strain", "max_von_mises", "max_von_mises_radius_mm",
                                        "stiffness", "calibration_ccw", "time_mesh", "time_solve")})
         if verbose:
             print(rows[-1], flush=True)
