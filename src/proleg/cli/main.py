@@ -23,7 +23,7 @@ SCENARIOS = {
     "hyq-jump": ("proleg.papers.hyq_jump", "run_jump", "Whole HyQ vertical jump on hydraulic cylinders, push designed by CMA-ES: height and what limits it (torque, pressure, flow)"),
     "hyq-static": ("proleg.papers.hyq_report", "run_static", "HyQ leg static test, payload 0/3/7 kg"),
     "hyq-quasistatic": ("proleg.papers.hyq_report", "run_quasistatic", "HyQ leg quasi-static cycles: force-stroke loops"),
-    "scout2-bound": ("proleg.papers.scout2_report", "run_bound", "Scout II bounding: Model I vs Model II, low speed, gait metrics, HTML report"),
+    "scout2-bound": ("proleg.papers.scout2_report", "run_bound", "Scout II bounding: Table 6 as printed, the leg damping calibrated on the 1.286 m/s speed (or the stop where none bounds), predictions, HTML report"),
     "hyq-bushing-study": ("proleg.papers.hyq_study", "run_bushing_study", "HyQ 8-bushing drop vs pin stiffness 1e6-1e10 N/m: proleg.study store + HTML report"),
     "flegx-jump": ("proleg.papers.flegx_report", "run_jump", "FLEGX countermovement jump: rigid vs PRBM vs CB link (seed 002 Fig. 3)"),
     "flegx-machinery": ("proleg.papers.flegx_report", "run_machinery", "FLEGX worm-gear jump with landing vs ideal gears (seed 002 Fig. 4)"),
