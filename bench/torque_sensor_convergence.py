@@ -15,8 +15,9 @@ fillet element size (``--sizes 5,4,3,2``), and the fillet element size at the ch
 (``--sizes 3,3,3 --fillet-sizes 0.25,0.175,0.125 --tag fillet``); ``--tag refined`` compares a
 coarse default with everything refined. Runs (bench/results/torque_sensor_convergence_*.csv):
 
-- final (issue 44): ``--sizes 5,4,3,2`` (fillet_size 0.35), ``--sizes 5,2 --fillet-sizes
-  0.35,0.25 --tag refined``, ``--sizes 3,3,3 --fillet-sizes 0.25,0.175,0.125 --tag fillet``;
+- final (issue 44): ``--sizes 5,4,3,2 --fillet-sizes 0.35,0.35,0.35,0.35``, ``--sizes 5,2
+  --fillet-sizes 0.35,0.25 --tag refined``, ``--sizes 3,3,3 --fillet-sizes 0.25,0.175,0.125 --tag
+  fillet`` (the default, 3 mm and 0.175, is the coarsest accepted);
 - the study's optimum before its changes: ``--study-best --sizes 5.8,5,4,3 --fillet-sizes
   0.35,0.35,0.35,0.25`` (writes ..._study_best.csv);
 - open_links (the final concept before issue 44; its numbers in the DEFAULT_MESH comment):

@@ -30,6 +30,40 @@ def test_final_defaults_are_the_study_design():
     assert d.concept == "final" and len(d.gauges) == final["n_spokes"]
 
 
+def test_the_default_mesh_is_the_coarsest_the_convergence_study_accepts():
+    """The convergence study's rule (bench/torque_sensor_convergence.py): a mesh is accepted when gauge
+    strain, stiffness and max von Mises are each within 2 % of the finest mesh's. Read from its committed
+    runs: the default element size passes in the h sequence (at two fillet element sizes) and the
+    next coarser one fails; the default fillet element size passes in the fillet sequence at that h and
+    the next coarser one fails."""
+    from pathlib import Path
+
+    import pandas as pd
+
+    from proleg.robots.torque_sensor import FILLET_SIZE
+
+    res = Path(__file__).resolve().parents[1] / "bench" / "results"
+    keys = ["gauge_strain_rel", "stiffness_rel", "max_von_mises_rel"]
+
+    def accepted(df):
+        return (df[keys].abs() <= 0.02).all(axis=1)
+
+    h, fs = DEFAULT_MESH["final"], FILLET_SIZE["final"]
+    seq = pd.read_csv(res / "torque_sensor_convergence_final.csv")
+    ok = accepted(seq)
+    assert ok[seq.mesh_size == h].all() and not ok[seq.mesh_size > h + 1e-9].iloc[-1]
+    both = pd.concat([pd.read_csv(res / "torque_sensor_convergence_final_fillet.csv").query("fillet_size == 0.25"),
+                      pd.read_csv(res / "torque_sensor_convergence_final_refined.csv").query("mesh_size == 0.002")])
+    assert set(both.mesh_size) == {h, 0.002}
+    rel = both.set_index("mesh_size").loc[h, ["gauge_strain", "stiffness", "max_von_mises"]] \
+        / both.set_index("mesh_size").loc[0.002, ["gauge_strain", "stiffness", "max_von_mises"]] - 1.0
+    assert (rel.abs() <= 0.02).all()
+    fil = pd.read_csv(res / "torque_sensor_convergence_final_fillet.csv")
+    assert (fil.mesh_size == h).all()
+    ok = accepted(fil)
+    assert ok[fil.fillet_size == fs].all() and not ok[fil.fillet_size > fs + 1e-9].iloc[-1]
+
+
 @pytest.mark.slow
 def test_final_concept_meets_the_requirements_on_an_accepted_mesh():
     """At the default mesh (the coarsest the convergence study accepts), both load cases, both
