@@ -85,6 +85,7 @@ Python's lock, so the loading overlaps the initial conditions even on two cores.
 from __future__ import annotations
 
 import contextlib
+import copy
 import dataclasses
 import enum
 import functools
@@ -399,7 +400,7 @@ class _Hasher:
         if d is not None:
             if self.abstract:  # the fields a trace never reads (a builder's notes): not structure
                 d = {k: v for k, v in d.items() if _traced_field(type(x), k)}
-            self.visit({k: v for k, v in d.items() if not k.startswith("_digest") and k not in fixed})
+            self.visit({k: v for k, v in d.items() if k not in fixed})
             for k in fixed:  # numbers that are structure (a one-hot selector, a sign): exact
                 self.put("structure field", k)
                 self.visit_exact(d.get(k))
@@ -545,14 +546,14 @@ class _Perturber:
             a = np.asarray(x)
             out = jax.numpy.asarray(self.inside(a)) if a.dtype.kind in "fc" else x
         elif isinstance(x, list):
-            out = _shallow(x)
+            out = copy.copy(x)
             self.memo[k] = out
             out[:] = [self.inside(e) for e in x]
         elif isinstance(x, tuple):
             items = [self.inside(e) for e in x]
             out = type(x)(*items) if hasattr(x, "_fields") else (tuple(items) if type(x) is tuple else type(x)(items))
         elif isinstance(x, dict):
-            out = _shallow(x)
+            out = copy.copy(x)
             self.memo[k] = out
             for kk in list(x):
                 out[kk] = self.inside(x[kk])
@@ -569,7 +570,7 @@ class _Perturber:
         k = id(x)
         if k in self.memo:
             return self.memo[k]
-        out = _shallow(x)
+        out = copy.copy(x)
         self.memo[k] = out
         self.keep.append(x)
         d = getattr(x, "__dict__", None)
@@ -583,12 +584,6 @@ class _Perturber:
                 if sl not in ("__dict__", "__weakref__") and hasattr(x, sl):
                     object.__setattr__(out, sl, walk(getattr(x, sl)))
         return out
-
-
-def _shallow(x):
-    import copy
-
-    return copy.copy(x)
 
 
 def _map_treedef(td, f):
@@ -610,6 +605,22 @@ def perturbed(static, treedef, change=_perturb_number):
     (:meth:`CachedJit.trace_difference`)."""
     p = _Perturber(change)
     return tuple(p.outside(s) for s in static), p.outside(treedef)
+
+
+def numbers_difference(j1, trace, static, treedef) -> str:
+    """What differs between the trace ``j1`` and ``trace(static', treedef')`` of the model with its
+    topology numbers changed, twice (:func:`_perturb_number`, :func:`_zero_number`: a branch on a
+    sign or on zero shows in one); "" when nothing does. A changed model that fails to trace
+    counts as a difference (when in doubt, miss)."""
+    for change in (_perturb_number, _zero_number):
+        try:
+            j2 = trace(*perturbed(static, treedef, change))
+        except Exception as exc:  # noqa: BLE001 (a perturbed model may not trace at all)
+            return f"the model with its numbers changed ({change.__name__}) does not trace: {type(exc).__name__}: {exc}"[:300]
+        why = _jaxpr_difference(j1, j2)
+        if why:
+            return why
+    return ""
 
 
 def structure_fingerprint(*objs) -> str:
@@ -765,12 +776,13 @@ class CachedJit:
         key = skey = None
         try:
             key = fingerprint(_environment_key(), self.name, self.fn, static, treedef, avals)
-            skey = structure_fingerprint(_environment_key(), self.name, self.fn, static, treedef, avals)
+            if _share_structures():
+                skey = structure_fingerprint(_environment_key(), self.name, self.fn, static, treedef, avals)
         except Unkeyable as exc:
             stats["unkeyed"] += 1
             stats["why_unkeyed"] = (stats.get("why_unkeyed", []) + [f"{self.name}: {exc}"])[-10:]
         st = cache_store.get(path) if path is not None and key is not None else None
-        if skey is not None and skey != key and _share_structures():
+        if skey is not None and skey != key:
             entry = self._shared(st, static, treedef, specs, key, skey)
             if entry is not None:
                 return entry
@@ -867,16 +879,7 @@ class CachedJit:
             j1, out = jax.make_jaxpr(self._flat(static, treedef), return_shape=True)(*specs)
             if _holds_data(jax.tree_util.tree_structure(out)):  # a System in the result: its topology is the first model's
                 return "the result holds a model's static data"
-            for change in (_perturb_number, _zero_number):  # two changes: a branch on a sign or on zero shows in one
-                try:
-                    s2, td2 = perturbed(static, treedef, change)
-                    j2 = jax.make_jaxpr(self._flat(s2, td2))(*specs)
-                except Exception as exc:  # noqa: BLE001 (a perturbed model may not trace at all)
-                    return f"the model with its numbers changed ({change.__name__}) does not trace: {type(exc).__name__}: {exc}"[:300]
-                why = _jaxpr_difference(j1, j2)
-                if why:
-                    return why
-        return ""
+            return numbers_difference(j1, lambda s2, td2: jax.make_jaxpr(self._flat(s2, td2))(*specs), static, treedef)
 
     def _flat(self, static, treedef):
         """``fn`` as a function of the flat leaves of its non-static arguments."""
