@@ -87,6 +87,10 @@ class Absolute:
     def generalized_forces(self, q, v, t, z=None):
         return generalized_forces(self.system, q, v, t, z)
 
+    def inverse_dynamics(self, q, v, a, t, z=None):
+        """M(q) a − Q(q, v, t): the equations of motion's residual without the constraint forces."""
+        return mass_action(self.system, q, a) - generalized_forces(self.system, q, v, t, z)
+
     def power_terms(self, q, v, t, z=None):
         return power_terms(self.system, q, v, t, z)
 
@@ -227,6 +231,11 @@ class Planar:
     def generalized_forces(self, x, xd, t, z=None):
         q, dp = self._frames(x)
         return self._Tt(dp, generalized_forces(self.system, q, self._T(dp, xd), t, z))
+
+    def inverse_dynamics(self, x, xd, a, t, z=None):
+        """Tᵀ(M T a − Q): the reduced residual without the constraint forces (one map of each)."""
+        q, dp = self._frames(x)
+        return self._Tt(dp, mass_action(self.system, q, self._T(dp, a)) - generalized_forces(self.system, q, self._T(dp, xd), t, z))
 
     def power_terms(self, x, xd, t, z=None):
         q, dp = self._frames(x)

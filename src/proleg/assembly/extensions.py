@@ -155,51 +155,75 @@ class ControllerGroup(AbstractGroup):
             parts.append(np.zeros(3) if e.kind == "pid" else np.concatenate([e.z0, np.zeros(len(e.outputs))]))
         return jnp.asarray(np.concatenate(parts)) if parts else jnp.zeros(0)
 
-    def sample(self, P, t, q, v, z, system, first=False):
-        bk, mk = kinematics(system, q, v)
+    def sample(self, P, t, q, v, z, system, first=False, kin=None):
+        """z after a sample at t: every controller whose clock ticks at t (or all, ``first``)
+        updates its slice. ``kin``: the (body, marker) kinematics at the state, where the
+        caller has them (joint coordinates: no round trip through absolute coordinates).
+
+        The PIDs are one vectorised law over all of them (set points, limits, levers and valve
+        lags from ``params``; a callable set point or lever is evaluated per PID), written into
+        z by one gather, so that a robot with a servo per joint costs a few kernels a sample, not
+        a few per servo; general discrete controllers run their own update each."""
+        bk, mk = kin if kin is not None else kinematics(system, q, v)
         view = StateView(system.topo, bk, mk, t, z, system.params)
         pids = [e for e in self.elements if e.kind == "pid"]
-        if pids:
-            th, th_d, _, _ = joint_coordinate(self.pid_oh_i, self.pid_oh_j, self.pid_rot, mk)
         z_new = z
-        k_pid = 0
+        if pids:
+            z_new = self._sample_pids(P, t, z, system, first, view, mk, pids)
         for e, (off, size) in zip(self.elements, self.slices):
-            tick = jnp.abs(t / e.period - jnp.round(t / e.period)) < 1e-7
             if e.kind == "pid":
-                k = k_pid
-                k_pid += 1
-                if e.setpoint is None:
-                    sp = system.params["controller_setpoint0"][k]
-                elif callable(e.setpoint):
-                    sp = jnp.asarray(e.setpoint(t) if _callable_arity(e.setpoint) <= 1 else e.setpoint(t, view), jnp.float64).reshape(())
-                else:
-                    sp = P["controller_setpoint"][k]
-                err = sp - th[k]
-                integ = z[off + 1] + jnp.where(first, 0.0, err * e.period)
-                u = P["controller_kp"][k] * err + P["controller_ki"][k] * integ - P["controller_kd"][k] * th_d[k]
-                if e.output_limit is not None:
-                    lim = P["controller_output_limit"][k]
-                    u = jnp.clip(u, -lim, lim)
-                cmd = u
-                if e.lever_arm is not None:
-                    la = e.lever_arm(th[k]) if callable(e.lever_arm) else P["controller_lever_arm"][k]
-                    cmd = u / la
-                act = self.actuators.get(e.actuator_ref)
-                if getattr(act, "valve_time_constant", None) is not None:
-                    a = jnp.exp(-e.period / P["controller_valve_time_constant"][k])
-                    cmd = jnp.where(first, cmd, a * z[off + 2] + (1 - a) * cmd)
-                new = jnp.stack([u, integ, cmd])
-            else:
-                zi, outs = e.update(t, view, z[off : off + e.z0.size])
-                zi = jnp.atleast_1d(jnp.asarray(zi, jnp.float64))
-                if zi.shape != (e.z0.size,):
-                    raise ModelError(f"DiscreteController '{e.name}': update returned state of shape {zi.shape}; expected ({e.z0.size},).")
-                missing = set(e.outputs) - set(outs)
-                if missing:
-                    raise ModelError(f"DiscreteController '{e.name}': update did not return outputs {sorted(missing)}.")
-                new = jnp.concatenate([zi, jnp.stack([jnp.asarray(outs[a], jnp.float64) for a in e.outputs])])
+                continue
+            tick = jnp.abs(t / e.period - jnp.round(t / e.period)) < 1e-7
+            zi, outs = e.update(t, view, z[off : off + e.z0.size])
+            zi = jnp.atleast_1d(jnp.asarray(zi, jnp.float64))
+            if zi.shape != (e.z0.size,):
+                raise ModelError(f"DiscreteController '{e.name}': update returned state of shape {zi.shape}; expected ({e.z0.size},).")
+            missing = set(e.outputs) - set(outs)
+            if missing:
+                raise ModelError(f"DiscreteController '{e.name}': update did not return outputs {sorted(missing)}.")
+            new = jnp.concatenate([zi, jnp.stack([jnp.asarray(outs[a], jnp.float64) for a in e.outputs])])
             z_new = z_new.at[off : off + size].set(jnp.where(tick | first, new, z[off : off + size]))
         return z_new
+
+    def _sample_pids(self, P, t, z, system, first, view, mk, pids):
+        """The PIDs' sample (:meth:`sample`): z with each ticking PID's [u, ∫e, command] new."""
+        th, th_d, _, _ = joint_coordinate(self.pid_oh_i, self.pid_oh_j, self.pid_rot, mk)
+        offs = np.array([off for e, (off, _) in zip(self.elements, self.slices) if e.kind == "pid"])
+        period = np.array([e.period for e in pids], float)
+        if any(callable(e.setpoint) for e in pids):
+            sp = jnp.stack([
+                jnp.asarray(e.setpoint(t) if _callable_arity(e.setpoint) <= 1 else e.setpoint(t, view), jnp.float64).reshape(())
+                if callable(e.setpoint) else (system.params["controller_setpoint0"][k] if e.setpoint is None else P["controller_setpoint"][k])
+                for k, e in enumerate(pids)
+            ])
+        elif all(e.setpoint is not None for e in pids):
+            sp = P["controller_setpoint"]
+        else:
+            none = np.array([e.setpoint is None for e in pids])
+            sp = jnp.where(none, system.params["controller_setpoint0"], P["controller_setpoint"])
+        err = sp - th
+        integ = z[offs + 1] + jnp.where(first, 0.0, err * period)
+        u = P["controller_kp"] * err + P["controller_ki"] * integ - P["controller_kd"] * th_d
+        if any(e.output_limit is not None for e in pids):  # (the others' limit is +inf)
+            lim = P["controller_output_limit"]
+            u = jnp.clip(u, -lim, lim)
+        cmd = u
+        if any(e.lever_arm is not None for e in pids):  # (the others' constant lever is 1)
+            if any(callable(e.lever_arm) for e in pids):
+                la = jnp.stack([e.lever_arm(th[k]) if callable(e.lever_arm) else P["controller_lever_arm"][k] for k, e in enumerate(pids)])
+            else:
+                la = P["controller_lever_arm"]
+            cmd = u / la
+        valve = np.array([getattr(self.actuators.get(e.actuator_ref), "valve_time_constant", None) is not None for e in pids])
+        if valve.any():
+            a = jnp.exp(-period / P["controller_valve_time_constant"])
+            cmd = jnp.where(first | ~valve, cmd, a * z[offs + 2] + (1 - a) * cmd)
+        tick = (jnp.abs(t / period - jnp.round(t / period)) < 1e-7) | first
+        new = jnp.where(tick[:, None], jnp.stack([u, integ, cmd], 1), z[offs[:, None] + np.arange(3)])
+        # z with the PIDs' slices replaced: one gather from [z, new] (no scatter)
+        src = np.arange(z.shape[0])
+        src[(offs[:, None] + np.arange(3)).reshape(-1)] = z.shape[0] + np.arange(3 * len(pids))
+        return jnp.concatenate([z, new.reshape(-1)])[src]
 
     def outputs(self, P, mk, t, ctx):
         return {}
@@ -216,19 +240,31 @@ class _CommandMixin:
         return any(callable(f) and _callable_arity(f) >= 2 for f in fns)
 
     def _command(self, P, t, ctx, const_key, fns):
+        """Each element's command: a controller's output from z, a callable's value, else the
+        constant ``P[const_key]``. Without callables, one gather and one select for all (a
+        robot's dozen servos would otherwise be a dozen gathers and a stack each evaluation)."""
+        n = len(self.elements)
+        if n == 0:
+            return jnp.zeros(0)
+        idx = np.asarray(self.cmd_index[:n], int)
+        held = idx >= 0
+        calls = [k for k in range(n) if not held[k] and fns[k] is not None]
+        if not calls:
+            if not held.any():
+                return P[const_key]
+            zc = ctx.z[np.where(held, idx, 0)]
+            return zc if held.all() else jnp.where(held, zc, P[const_key])
         vals = []
         for k, e in enumerate(self.elements):
-            if self.cmd_index[k] >= 0:
-                vals.append(ctx.z[self.cmd_index[k]])
+            if held[k]:
+                vals.append(ctx.z[idx[k]])
             elif fns[k] is not None:
                 f = fns[k]
-                from ..model.forces import _callable_arity
-
                 out = f(t) if _callable_arity(f) <= 1 else f(t, ctx)
                 vals.append(jnp.asarray(out, jnp.float64))
             else:
                 vals.append(P[const_key][k])
-        return jnp.stack(vals) if vals else jnp.zeros(0)
+        return jnp.stack(vals)
 
 
 class JointActuatorGroup(TwoMarkerGroup, _CommandMixin):

@@ -44,6 +44,7 @@ drives and controllers act unchanged, and results come out in absolute coordinat
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -59,6 +60,19 @@ from .system import System, body_loads, element_power
 from ..compile_cache import jit
 
 TREE_KINDS = ("revolute", "prismatic", "cylindrical", "fixed")
+
+
+class TreePass(NamedTuple):
+    """One pass of a tree's forward kinematics (:meth:`JointCoordinates.tree_pass`): poses r, A,
+    motion subspace S, spatial velocities V, body and marker kinematics, spatial inertias."""
+
+    r: jnp.ndarray
+    A: jnp.ndarray
+    S: jnp.ndarray
+    V: jnp.ndarray
+    bk: BodyKin
+    mk: object
+    I: jnp.ndarray
 ROT, TRANS, FLOAT_R, FLOAT_P = 0, 1, 2, 3
 
 
@@ -400,6 +414,20 @@ class JointCoordinates:
         P = self.system.params
         return marker_kin(self.system.topo.marker_oh, P["marker_s"], P["marker_C"], bk)
 
+    def kinematics(self, x, xd):
+        """(body, marker) kinematics at (x, ẋ) straight from the tree (what element laws and
+        controller samples read; the parts' Euler parameters are not formed: zeros)."""
+        tp = self.tree_pass(x, xd)
+        return tp.bk, tp.mk
+
+    def tree_pass(self, x, xd) -> "TreePass":
+        """Everything one pass of forward kinematics gives at (x, ẋ), for callers that need
+        several quantities of one state (a controller sample, the powers and the restart's
+        dynamics after it: solvers/driver.py) without tracing the kinematics once for each."""
+        r, A, S, V = self._state(x, xd)
+        bk = self._body_kin(r, A, V)
+        return TreePass(r, A, S, V, bk, self._markers(bk), self._spatial_inertia(r, A))
+
     def absolute(self, x, xd):
         """Absolute (q, v) of a joint-coordinate state (the Euler parameters' rates ½ Gᵀ ω, and
         the floating bases' own ṗ)."""
@@ -476,24 +504,35 @@ class JointCoordinates:
         bk = self._body_kin(r, A, V)
         return self._rnea(x, xd, t, z, r, A, S, V, bk, self._markers(bk), self._spatial_inertia(r, A))
 
-    def dynamics(self, x, xd, t, z=None):
-        """(M, Q, powers) from one pass of forward kinematics: what the ODE's right-hand side
-        needs (solvers/ode.py), without repeating the kinematics per quantity."""
+    def inverse_dynamics(self, x, xd, xdd, t, z=None):
+        """M(x) ẍ − Q(x, ẋ, t) = RNEA(x, ẋ, ẍ) in one pass: the α-method's residual needs this
+        combination only, and one pass of forward kinematics and element loads instead of a
+        CRBA and an RNEA each with their own kinematics is about 40 % fewer kernels a Newton
+        iteration on a quadruped (bench/results/whole_robot_kernels.md)."""
         r, A, S, V = self._state(x, xd)
         bk = self._body_kin(r, A, V)
-        mk = self._markers(bk)
-        I = self._spatial_inertia(r, A)
-        Q = self._rnea(x, xd, t, z, r, A, S, V, bk, mk, I)
-        return self._crba(S, I), Q, element_power(self.system, bk, mk, t, z)
+        return -self._rnea(x, xd, t, z, r, A, S, V, bk, self._markers(bk), self._spatial_inertia(r, A), xdd)
 
-    def _rnea(self, x, xd, t, z, r, A, S, V, bk, mk, I):
+    def dynamics(self, x, xd, t, z=None, tp=None):
+        """(M, Q, powers) from one pass of forward kinematics: what the ODE's right-hand side
+        needs (solvers/ode.py), without repeating the kinematics per quantity. ``tp``: that
+        pass (:meth:`tree_pass`) if the caller has it."""
+        tp = self.tree_pass(x, xd) if tp is None else tp
+        Q = self._rnea(x, xd, t, z, tp.r, tp.A, tp.S, tp.V, tp.bk, tp.mk, tp.I)
+        return self._crba(tp.S, tp.I), Q, element_power(self.system, tp.bk, tp.mk, t, z)
+
+    def _rnea(self, x, xd, t, z, r, A, S, V, bk, mk, I, xdd=None):
+        """Q − M ẍ (ẍ = 0 when not given): −Sᵀ of the subtree sums of the parts' net forces."""
         T, P = self.tree, self.system.params
         nb = T.parent.size
         anc = jnp.asarray(T.anc)
         Fb, Nb, _, _ = body_loads(self.system, bk, mk, t, z)
         Nw = mv(bk.A[:nb], Nb)
         fext = jnp.concatenate([Nw + jnp.cross(r[:nb], Fb), Fb], 1)
-        acc = anc @ self._bias(x, xd, S, V) - jnp.concatenate([jnp.zeros(3, x.dtype), P["gravity"]])
+        c = self._bias(x, xd, S, V)
+        if xdd is not None:  # S ẍ per coordinate (Ṡ ẋ is in the bias; Ġ ṗ = 0 for the floating p)
+            c = c + S * xdd[:, None]
+        acc = anc @ c - jnp.concatenate([jnp.zeros(3, x.dtype), P["gravity"]])
         h = jnp.einsum("bij,bj->bi", I, V)
         vxf = jnp.concatenate([jnp.cross(V[:, :3], h[:, :3]) + jnp.cross(V[:, 3:], h[:, 3:]), jnp.cross(V[:, :3], h[:, 3:])], 1)
         f = jnp.einsum("bij,bj->bi", I, acc) + vxf - fext

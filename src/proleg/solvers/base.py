@@ -191,7 +191,7 @@ def _rms_norm(err, y0, y1, rtol, atol):
 def _step_loop(method, dyn, y0, z0, grid, tick, tol, h0, dt_max, max_steps):
     """The generic loop: steps of ``method`` from grid[0] over the grid's points (outputs and
     controller samples), landing on each; error control where ``step`` returns an estimate."""
-    from .initial import sample_controllers
+    from .initial import sample_state
     from .eom import vector_field
 
     adaptive = getattr(method, "fixed_step", None) is None
@@ -231,8 +231,7 @@ def _step_loop(method, dyn, y0, z0, grid, tick, tol, h0, dt_max, max_steps):
 
         t, y, st, ns, nr, ok, h = jax.lax.while_loop(cond, body, (ta, y, st, ns, nr, ok, h))
         ok = ok & (t >= tb)
-        q, v = dyn.absolute(y[0], y[1])
-        z = jnp.where(tick[k + 1], sample_controllers(dyn.system, tb, q, v, z), z)
+        z = jnp.where(tick[k + 1], sample_state(dyn, tb, y[0], y[1], z), z)
         return (y, z, st, ns, nr, ok, h), (y, z)
 
     st0 = method.init(f, grid[0], y0, args0)

@@ -22,8 +22,9 @@ import jax.numpy as jnp
 
 from ..errors import Status
 from ..assembly.coordinates import Absolute
-from .galpha import StepOptions, StepState, lu_apply, rarely, step
-from .initial import kkt_accelerations, sample_controllers
+from ..assembly.system import element_power
+from .galpha import StepOptions, StepState, lu_apply, rarely, step, with_power
+from .initial import kkt_accelerations, sample_controllers, sample_state
 from ..compile_cache import cached_jit, jit, tracing
 
 
@@ -52,10 +53,22 @@ sample_controllers_first = jit(partial(sample_controllers, first=True))
 def _sample_update(dyn, st: StepState, hht: bool):
     """A controller sample. The held commands jump, so the accelerations are re-initialised from
     the KKT system at the new commands (like a restart), instead of being smeared over a step."""
-    return _restart(dyn, st, sample_controllers(dyn.system, st.t, *dyn.absolute(st.q, st.v), st.z), hht)
+    return _restart(dyn, st, sample_state(dyn, st.t, st.q, st.v, st.z), hht)
 
 
-def _restart(dyn, st: StepState, z, hht: bool):
+def _tick_joint(dyn, st: StepState, new: StepState, h, hht: bool):
+    """A step that ends on a controller tick, in joint coordinates: the step's powers (old
+    commands), the sample, and the restart's dynamics (new commands) from one pass of the
+    tree's kinematics, where :func:`_sample_update` after a step with its own powers traces
+    it three times. Returns (the step with its powers, the state after the sample)."""
+    tp = dyn.tree_pass(new.q, new.v)
+    new = with_power(st, new, h, element_power(dyn.system, tp.bk, tp.mk, new.t, new.z))
+    z = sample_controllers(dyn.system, new.t, None, None, new.z, kin=(tp.bk, tp.mk))
+    t_right = new.t + 1e-12 * jnp.maximum(1.0, jnp.abs(new.t))
+    return new, _restart(dyn, new, z, hht, dyn.dynamics(new.q, new.v, t_right, z, tp=tp))
+
+
+def _restart(dyn, st: StepState, z, hht: bool, mqp=None):
     """Re-initialise the accelerations, multipliers and HHT history from the KKT system at
     (t, q, v, z): after a controller sample or at a motion-law breakpoint, where the
     accelerations jump (the a_n history would otherwise ring, decaying as ρ∞ⁿ). The
@@ -68,10 +81,17 @@ def _restart(dyn, st: StepState, z, hht: bool):
     use g and keeps it as it is."""
     t_right = st.t + 1e-12 * jnp.maximum(1.0, jnp.abs(st.t))
     Pq = jax.jacfwd(lambda qq: dyn.constraints(qq, t_right))(st.q)
-    Q = dyn.generalized_forces(st.q, st.v, t_right, z)
-    qdd, lam = kkt_accelerations(dyn, st.q, st.v, t_right, z, Pq=Pq, Q=Q)
+    if mqp is not None:  # (M, Q, powers) at (q, v, t_right, z), given by the caller
+        M, Q, pw = mqp
+    elif hasattr(dyn, "dynamics"):
+        # M, Q and the powers from one pass of the kinematics (joint coordinates); the powers
+        # at t_right, the right limit the next step's trapezoidal rule starts from.
+        M, Q, pw = dyn.dynamics(st.q, st.v, t_right, z)
+    else:
+        M, Q, pw = None, dyn.generalized_forces(st.q, st.v, t_right, z), dyn.power_terms(st.q, st.v, st.t, z)
+    qdd, lam = kkt_accelerations(dyn, st.q, st.v, t_right, z, M=M, Pq=Pq, Q=Q)
     g = Pq.T @ lam - Q if hht else st.g
-    return st._replace(z=z, qdd=qdd, a=qdd, lam=lam, g=g, pw=dyn.power_terms(st.q, st.v, st.t, z), jerk_h=st.jerk_h * 0.0)
+    return st._replace(z=z, qdd=qdd, a=qdd, lam=lam, g=g, pw=pw, jerk_h=st.jerk_h * 0.0)
 
 
 class Knot(NamedTuple):
@@ -221,7 +241,10 @@ def advance(dyn, integrator, dopts: DriverOptions, st: StepState, h, out_times, 
         # Land on the event when within 1e-6·h of it (fixed steps accumulate round-off in t).
         h_take = jnp.where(h_des * (1 + 1e-6) >= rem, rem, jnp.where(2 * h_des > rem, 0.5 * rem, h_des))
         clipped = h_take < h_des
-        new, err, iters, conv, wrow, stale_fail, built = step(dyn, integrator, st, h_take, dopts.step)
+        # Joint coordinates with sampled controllers: the powers of a step that ends on a tick
+        # come with the sample and the restart from one pass of the kinematics (_tick_joint).
+        merged = Ts is not None and hasattr(dyn, "tree_pass")
+        new, err, iters, conv, wrow, stale_fail, built = step(dyn, integrator, st, h_take, dopts.step, power=not merged)
         if fixed:
             accept = conv
             h_next = h
@@ -236,13 +259,22 @@ def advance(dyn, integrator, dopts: DriverOptions, st: StepState, h, out_times, 
             h_rej = jnp.where(conv, h_take * jnp.minimum(fac, 1.0), jnp.where(stale_fail, h_take, 0.25 * h_take))
             # The step sequence is not differentiated (derivatives are those of the discrete map).
             h_next = jax.lax.stop_gradient(jnp.clip(jnp.where(accept, h_acc, h_rej), 0.0, dopts.dt_max))
+        after = new
+        if merged:
+
+            def plain(n):
+                n = with_power(st, n, h_take, dyn.power_terms(n.q, n.v, n.t, n.z))
+                return n, n
+
+            at_tick = accept & (jnp.abs(new.t / Ts - jnp.round(new.t / Ts)) < 1e-9 * jnp.maximum(1.0, new.t / Ts))
+            new, after = jax.lax.cond(at_tick, lambda n: _tick_joint(dyn, st, n, h_take, integrator.hht), plain, new)
         # Accepted: the new state; rejected: the old one, but with the newest Newton matrix.
         jac_fields = ("Jfac", "jac_h", "jac_ok", "jac_hold", "jac_pen")
         st2 = StepState(*[
-            getattr(new, f) if f in jac_fields else jnp.where(accept, getattr(new, f), getattr(st, f)) for f in StepState._fields
+            getattr(new, f) if f in jac_fields else jnp.where(accept, getattr(after, f), getattr(st, f)) for f in StepState._fields
         ])
         # Controller sample at its clock ticks.
-        if Ts is not None:
+        if Ts is not None and not merged:
             at_tick = accept & (jnp.abs(st2.t / Ts - jnp.round(st2.t / Ts)) < 1e-9 * jnp.maximum(1.0, st2.t / Ts))
             st2 = jax.lax.cond(at_tick, lambda s: _sample_update(dyn, s, integrator.hht), lambda s: s, st2)
         if bps is not None:

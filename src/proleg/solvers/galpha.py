@@ -361,7 +361,10 @@ def iteration_matrix(dyn, q1, v1, t1, z, bp, cv, mfac):
 
     def g(y):
         dq = y[col.color]  # the seed matrix product S @ y as a gather
-        Rq = mfac * dyn.mass_action(q1, dq) - dyn.generalized_forces(q1 + dq, v1 + cv * dq, t1, z) / bp
+        # mfac·M(q1) dq − Q(q1 + dq, v1 + cv dq)/β' through the inverse dynamics: at y = 0 the
+        # derivative of M(q1 + dq)(mfac β' dq) is M(q1) mfac β' exactly, and the coordinate set's
+        # kinematics are traced once instead of once for M and once for Q.
+        Rq = dyn.inverse_dynamics(q1 + dq, v1 + cv * dq, (mfac * bp) * dq, t1, z) / bp
         return jnp.concatenate([Rq, dyn.constraints(q1 + dq, t1)])
 
     Jc = jax.jacfwd(g)(jnp.zeros(col.ncolors, q1.dtype))[:, col.color]
@@ -370,8 +373,16 @@ def iteration_matrix(dyn, q1, v1, t1, z, bp, cv, mfac):
     return jnp.concatenate([jnp.concatenate([Jqq, Pq.T], 1), jnp.concatenate([Pq, jnp.zeros((nc, nc), q1.dtype)], 1)], 0)
 
 
-def step(dyn, integrator, st: StepState, h, opts: StepOptions):
+def with_power(st: StepState, new: StepState, h, pw1) -> StepState:
+    """``new`` (a step of size h from ``st``) with its powers ``pw1`` and the energies
+    integrated over the step by the trapezoidal rule."""
+    return new._replace(pw=pw1, w=st.w + 0.5 * h * (st.pw + pw1))
+
+
+def step(dyn, integrator, st: StepState, h, opts: StepOptions, power: bool = True):
     """One step of size h from ``st`` in the coordinates ``dyn`` (assembly/coordinates.py).
+    ``power=False``: the new state's powers and energies are left for the caller to fill
+    (:func:`with_power`), who evaluates them with other quantities of the same state.
 
     Returns (new state, error norm, iterations, converged, worst row, failed with a reused
     Newton matrix: retry at the same h, a Newton matrix was built).
@@ -400,14 +411,15 @@ def step(dyn, integrator, st: StepState, h, opts: StepOptions):
         q1, mu = x[:nq], x[nq:]
         a1, v1, qdd1 = update(q1)
         phi, vjp = jax.vjp(lambda qq: dyn.constraints(qq, t1), q1)
-        Q = dyn.generalized_forces(q1, v1, t1, z)
         if integrator.hht:
             al = integrator.alpha
             qm = (1 + al) * q1 - al * st.q
+            Q = dyn.generalized_forces(q1, v1, t1, z)
             # (1/(1+α)) M q̈ + (Φ_qᵀλ − Q)_{n+1} − (α/(1+α)) g_n = 0, scaled by 1/β'
             Rq = (dyn.mass_action(qm, qdd1) / (1 + al) - Q - al / (1 + al) * st.g) / bp + vjp(mu)[0]
         else:
-            Rq = (dyn.mass_action(q1, qdd1) - Q) / bp + vjp(mu)[0]
+            # M q̈ − Q in one pass of the coordinate set's kinematics (inverse dynamics)
+            Rq = dyn.inverse_dynamics(q1, v1, qdd1, t1, z) / bp + vjp(mu)[0]
         return jnp.concatenate([Rq, phi])
 
     def fresh_factors(x):
@@ -504,8 +516,8 @@ def step(dyn, integrator, st: StepState, h, opts: StepOptions):
             ev_vec = ev_vec - lu_apply(Jfac, jnp.concatenate([jnp.zeros(nq, q1.dtype), dphi]))[:nq]
         wv = dyn.weights(st.q, 0.0, opts.atol, opts.atol_p) / opts.velocity_time_scale + opts.rtol * jnp.abs(st.v)
         err = jnp.maximum(err, _wrms(ev_vec, wv))
-    pw1 = dyn.power_terms(q1, v1, t1, z)
-    wnew = st.w + 0.5 * h * (st.pw + pw1)
+    pw1 = dyn.power_terms(q1, v1, t1, z) if power else st.pw
+    wnew = st.w + 0.5 * h * (st.pw + pw1) if power else st.w
     if integrator.hht:
         _, vjp1 = jax.vjp(lambda qq: dyn.constraints(qq, t1), q1)
         g1 = vjp1(lam1)[0] - dyn.generalized_forces(q1, v1, t1, z)

@@ -49,12 +49,21 @@ def _normalize_p(q, nb):
     return jnp.concatenate([jnp.concatenate([qb[:, :3], p], 1).reshape(-1), q[7 * nb :]])
 
 
-def sample_controllers(system, t, q, v, z, first=False):
-    """Controller sample: z ← update(t, q, v, z) for every sampled element."""
+def sample_controllers(system, t, q, v, z, first=False, kin=None):
+    """Controller sample: z ← update(t, q, v, z) for every sampled element. ``kin``: the (body,
+    marker) kinematics at (q, v) if the caller has them (then q and v are not read)."""
     for g in system.topo.extensions:
         if hasattr(g, "sample"):
-            z = g.sample(system.params, t, q, v, z, system, first)
+            z = g.sample(system.params, t, q, v, z, system, first, kin)
     return z
+
+
+def sample_state(dyn, t, x, xd, z):
+    """:func:`sample_controllers` at a state (x, ẋ) of the coordinate set ``dyn``: from its own
+    kinematics where it has them (joint coordinates), else through absolute coordinates."""
+    if hasattr(dyn, "kinematics"):
+        return sample_controllers(dyn.system, t, None, None, z, kin=dyn.kinematics(x, xd))
+    return sample_controllers(dyn.system, t, *dyn.absolute(x, xd), z)
 
 
 def initial_z(system: System):

@@ -214,14 +214,13 @@ def _run_free(integrator, dyn, y0, z, times, tol, h, dt_max, fixed):
 def _run_sampled(integrator, dyn, y0, z0, grid, tick, tol, h, dt_max, fixed):
     """Sample to sample (and output to output): one solve per interval of ``grid``; at a tick
     the controllers sample the state reached."""
-    from .initial import sample_controllers
+    from .initial import sample_state
 
     def seg(c, k):
         y, z, ns, nr, ok = c
         ys, a, b, good = solve(integrator, dyn, y, z, grid[k], grid[k + 1], tol, dt0=h, dt_max=dt_max, fixed=fixed)
         y = jax.tree_util.tree_map(lambda w: w[-1], ys)
-        q, v = dyn.absolute(y[0], y[1])
-        z = jnp.where(tick[k + 1], sample_controllers(dyn.system, grid[k + 1], q, v, z), z)
+        z = jnp.where(tick[k + 1], sample_state(dyn, grid[k + 1], y[0], y[1], z), z)
         return (y, z, ns + a, nr + b, ok & good), (y, z)
 
     c0 = (y0, z0, jnp.array(0), jnp.array(0), jnp.array(True))

@@ -390,10 +390,10 @@ def gfull_plain(eqs, y, t, h):
 
 
 def _run(cfg, dyn, q, v, lam, a, z, times, stops, is_tick, tol, h0, dt_max):
-    from .initial import sample_controllers
+    from .initial import sample_state
 
     def sample(t, x, xd, zz):
-        return sample_controllers(dyn.system, t, *dyn.absolute(x, xd), zz)
+        return sample_state(dyn, t, x, xd, zz)
 
     w = jnp.zeros(2, q.dtype)
     return integrate(cfg, dyn, sample, q, v, lam, a, z, w, times, stops, is_tick, tol, h0, dt_max)
