@@ -285,23 +285,62 @@ class JointActuatorGroup(TwoMarkerGroup, _CommandMixin):
         self.clique = bool(self.battery_members)
 
     def params(self):
-        return {"joint_actuator_effort": np.array([e.effort_value for e in self.elements], float)}
+        out = {"joint_actuator_effort": np.array([e.effort_value for e in self.elements], float)}
+        if self.has_drive:
+            out.update(self._drive_params())
+        return out
 
-    def _leg_speed(self, k, xd):
-        e = self.elements[k]
-        return xd[k] / e.drive.beta if e.motor_side else xd[k]
+    def _drive_params(self):
+        """Every number of the actuators' DC motor drives and belt stages, one entry per actuator:
+        ``joint_actuator_drive_<field>`` (:data:`~proleg.drives.dcmotor.DRIVE_NUMBERS`: gear and
+        belt ratios and efficiencies, motor constants, amplifier and battery numbers, drag) and,
+        where a drive models its belt stage, ``joint_actuator_belt_<field>``. The law reads them
+        from ``params`` only (:meth:`_drives`), so a design with another gear ratio or motor
+        shares the compiled model (issue 42). Which actuators have a drive, and which drives a
+        belt stage, is structure; the entries of the others hold the default drive's (belt's)
+        numbers and are never read."""
+        from ..drives.belt import BELT_NUMBERS, BeltLoss
+        from ..drives.dcmotor import DRIVE_NUMBERS, DCMotorDrive
+
+        drives = [e.drive if e.drive is not None else DCMotorDrive() for e in self.elements]
+        out = {f"joint_actuator_drive_{f}": np.array([float(getattr(d, f)) for d in drives]) for f in DRIVE_NUMBERS}
+        if any(d.belt is not None for d in drives):
+            belts = [d.belt if d.belt is not None else BeltLoss() for d in drives]
+            out.update({f"joint_actuator_belt_{f}": np.array([float(getattr(b, f)) for b in belts]) for f in BELT_NUMBERS})
+        return out
+
+    def _drives(self, P):
+        """The actuators' drives (None where there is none) with their numbers from ``P``."""
+        import dataclasses
+
+        from ..drives.belt import BELT_NUMBERS
+        from ..drives.dcmotor import DRIVE_NUMBERS
+
+        out = []
+        for k, e in enumerate(self.elements):
+            if e.drive is None:
+                out.append(None)
+                continue
+            belt = e.drive.belt
+            if belt is not None:
+                belt = dataclasses.replace(belt, **{f: P[f"joint_actuator_belt_{f}"][k] for f in BELT_NUMBERS})
+            out.append(dataclasses.replace(e.drive, belt=belt, **{f: P[f"joint_actuator_drive_{f}"][k] for f in DRIVE_NUMBERS}))
+        return out
+
+    def _leg_speed(self, k, xd, drives):
+        return xd[k] / drives[k].beta if self.elements[k].motor_side else xd[k]
 
     def _law(self, P, mk, t, ctx, full=False):
         x, xd, zJ, delta = joint_coordinate(self.oh_i, self.oh_j, self.rot, mk)
         u = self._command(P, t, ctx, "joint_actuator_effort", [e.effort if callable(e.effort) else None for e in self.elements])
+        drives = self._drives(P) if self.has_drive else [None] * len(self.elements)
         V_of = {}
         if self.battery_members:
             from ..drives.battery import shared_supply
 
             for b, ks in self.battery_members.items():
-                drives = [self.elements[k].drive for k in ks]
                 V_of[b] = shared_supply(
-                    drives, jnp.stack([u[k] for k in ks]), jnp.stack([self._leg_speed(k, xd) for k in ks]),
+                    [drives[k] for k in ks], jnp.stack([u[k] for k in ks]), jnp.stack([self._leg_speed(k, xd, drives) for k in ks]),
                     P["battery_V_nom"][b], P["battery_R_s"][b],
                 )
         member_of = {k: b for b, ks in self.battery_members.items() for k in ks}
@@ -312,9 +351,10 @@ class JointActuatorGroup(TwoMarkerGroup, _CommandMixin):
             if e.drive is not None:
                 from ..drives.dcmotor import delivered_torque
 
+                drive = drives[k]
                 V = V_of.get(member_of.get(k))
-                d = delivered_torque(e.drive, uk, self._leg_speed(k, xd), battery=True, V=V)
-                uk = d.torque / e.drive.beta if e.motor_side else d.torque
+                d = delivered_torque(drive, uk, self._leg_speed(k, xd, drives), battery=True, V=V)
+                uk = d.torque / drive.beta if e.motor_side else d.torque
                 elec.append((d.current, d.supply_voltage, d.supply_current, d.electrical_power, d.saturated.astype(jnp.float64), d.torque))
             else:
                 elec.append((zero, zero, zero, zero, zero, uk))

@@ -60,7 +60,9 @@ class SlideFrictionGroup(TwoMarkerGroup):
         self.slider = np.array([self.marker_body[marker_index[id(e.i)]] for e in self.elements], int)
         self.use_moment = np.array([e.use_moment for e in self.elements], bool)
         # markers on each slider part (the loads summed into its reaction)
-        self.on_slider = np.array([self.marker_body == b for b in self.slider], float)  # (ne, nm)
+        # a bool mask (structure: which markers sit on the slider), so that the structural hash
+        # and the numbers check keep it exact instead of treating its 0/1 as model numbers
+        self.on_slider = np.array([self.marker_body == b for b in self.slider], bool)  # (ne, nm)
         # Jacobian coupling: every marker of every element with a marker on the slider part,
         # padded per element to equal length (one Select per column: per-element body sets).
         others = [f for f in list(model.forces) + list(model.contacts) + list(model.actuators) if getattr(f, "kind", "") != self.kind]
@@ -90,7 +92,7 @@ class SlideFrictionGroup(TwoMarkerGroup):
                 continue
             F, T = g.loads(P, mk, ctx.t, ctx)
             Fm, Tm = Fm + F, Tm + T
-        W = jnp.asarray(self.on_slider)
+        W = jnp.asarray(self.on_slider, jnp.float64)
         F_res = W @ Fm + P["body_mass"][self.slider][:, None] * P["gravity"][None, :]
         r_com = ctx._bk.r[self.slider]
         arm = mk.r[None, :, :] - centre[:, None, :]  # (ne, nm, 3)

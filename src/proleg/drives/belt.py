@@ -41,7 +41,7 @@ import jax.numpy as jnp
 
 from ..errors import ModelError
 
-__all__ = ["BeltLoss", "belt_output_torque", "belt_input_torque", "belt_loss_power", "scout2_belt"]
+__all__ = ["BeltLoss", "BELT_NUMBERS", "belt_output_torque", "belt_input_torque", "belt_loss_power", "scout2_belt"]
 
 
 @jax.tree_util.register_dataclass
@@ -79,6 +79,11 @@ class BeltLoss:
     def drag_torque(self, speed):
         """τ_d(ω) [N m]: no-load drag at the output shaft, opposing ω [rad/s]."""
         return self.drag * jnp.tanh(speed / self.drag_speed) + self.viscous * speed
+
+
+#: The fields of :class:`BeltLoss` (all numbers of its law); an assembled model carries them as
+#: parameters ``joint_actuator_belt_<field>`` (issue 42, as :data:`~proleg.drives.dcmotor.DRIVE_NUMBERS`).
+BELT_NUMBERS = tuple(f.name for f in dataclasses.fields(BeltLoss))
 
 
 def _forward(tau_in, speed):

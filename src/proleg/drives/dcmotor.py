@@ -50,6 +50,7 @@ from .gears import GearTrain
 
 __all__ = [
     "DCMotorDrive",
+    "DRIVE_NUMBERS",
     "DriveOutput",
     "torque_speed_line",
     "torque_speed_limits",
@@ -64,7 +65,11 @@ class DCMotorDrive:
     """Parameters of one Scout II hip drive (seed 003, Table 3 and §4.1); a frozen pytree.
 
     All fields are leaves (differentiable, vmappable, identifiable); derived quantities are
-    properties. Use ``dataclasses.replace(drive, R_a=1.5)`` for a variant.
+    properties. Use ``dataclasses.replace(drive, R_a=1.5)`` for a variant. On a
+    :class:`~proleg.JointActuator` of an assembled model the fields are parameters,
+    ``joint_actuator_drive_<field>`` (:data:`DRIVE_NUMBERS`; the belt stage's
+    ``joint_actuator_belt_<field>``), one entry per actuator: the law reads them from
+    ``System.params``, so models with other drives share their compiled functions (issue 42).
 
     Parameters
     ----------
@@ -175,6 +180,14 @@ class DCMotorDrive:
     def no_load_speed(self):
         """V / (β K_ω) [rad/s]: leg speed at which the torque–speed line reaches 0 (V = V_supply)."""
         return self.V_supply / (self.beta * self.K_omega)
+
+
+#: The fields of :class:`DCMotorDrive` that are numbers of its law: every field but ``belt``
+#: (whether a belt stage is modelled is structure; its numbers are :data:`~proleg.drives.belt.BELT_NUMBERS`).
+#: An assembled model carries them as parameters ``joint_actuator_drive_<field>`` (one entry per
+#: joint actuator), so that a drive with another gear ratio or motor is a new argument of the
+#: compiled model, not a new compile (issue 42).
+DRIVE_NUMBERS = tuple(f.name for f in dataclasses.fields(DCMotorDrive) if f.name != "belt")
 
 
 def _source(drive: DCMotorDrive, battery: bool):

@@ -87,7 +87,21 @@ HIP_AXIS = (0.0, -1.0, 0.0)  # positive leg angle and pitch: toe forward, nose u
 
 @dataclass
 class Scout2Params:
-    """Every parameter of :func:`scout2` (SI; angles in rad). Defaults: seed 003 (scout2_data)."""
+    """Every parameter of :func:`scout2` (SI; angles in rad). Defaults: seed 003 (scout2_data).
+
+    Designs and compiles (issue 42): every number here reaches the compiled model as an entry of
+    ``System.params`` (masses, geometry, springs, contact, the drive's fields as
+    ``joint_actuator_drive_*`` and its belt stage's as ``joint_actuator_belt_*``, the controller's
+    gains, set points, thresholds and retraction-law numbers as design variables), so two designs
+    that differ only in numbers share one trace (``proleg.analyses.structure.numbers_read`` of the
+    assembled model is empty). Structure, where a change compiles anew: the model ("I"/"II"),
+    ``angle_sensor`` (which joint the controller reads), ``control_period`` (the controllers'
+    clock), whether ``leg_mu`` is positive (Model II: the leg friction elements exist or not) and
+    whether the drive models its belt stage (``drive.belt`` given, or Model II). Numbers the
+    builder derives (the virtual motor of ``motors_per_leg`` motors, the belt stage's drag, the
+    retraction law's τ_max, A, α K_T i_max) are computed at build time: a new design is a new
+    ``scout2(...)`` call, not a ``with_params`` of the drive's entries.
+    """
 
     body_mass: float = D.BODY_MASS
     body_inertia: float = D.BODY_INERTIA
@@ -256,6 +270,12 @@ def scout2(model: str = "I", *, per: str = D.TABLE6_READING, **params) -> Model:
         mdl.add_variable(k, n_mot * getattr(p, k), "N m/rad" if k.endswith("kp") else "N m s/rad", "Table 4, virtual leg")
     mdl.add_variable("touchdown_compression", p.touchdown_compression, "m")
     mdl.add_variable("liftoff_compression", p.liftoff_compression, "m")
+    # the retraction law's Eq. 4 and Eq. 6 numbers for the virtual motor (the controller's model of
+    # the drive, derived here from the drive's data): params, so that a design with another gear
+    # ratio or motor shares the compiled model (issue 42)
+    mdl.add_variable("retraction_tau_max", float(drive.tau_max), "N m", "Eq. 4: α K_T V / R_a at V = 36 V, virtual motor")
+    mdl.add_variable("retraction_A", float(drive.A), "N m s/rad", "Eq. 4: −β α K_T K_ω / R_a, virtual motor")
+    mdl.add_variable("retraction_tau_limit", float(drive.tau_current_limit), "N m", "Eq. 6: α K_T i_max, virtual motor")
     h = p.height
     cp, sp = np.cos(p.pitch), np.sin(p.pitch)
     Rb = np.array([[cp, 0, -sp], [0, 1, 0], [sp, 0, cp]])  # rotation about −y by the pitch
@@ -326,7 +346,7 @@ def scout2(model: str = "I", *, per: str = D.TABLE6_READING, **params) -> Model:
         motors[leg] = act.name
         mdl.add_variable(f"touchdown_{leg}", getattr(p, f"touchdown_{leg}"), "rad", "Table 4 touchdown angle")
         mdl.add_variable(f"sweep_{leg}", getattr(p, f"sweep_{leg}"), "rad", "Table 4 sweep limit")
-        mdl.add_controller(bounding_controller(leg, p, drive, angle_joint=angles[leg], leg_joint=lj.name, actuator=act.name))
+        mdl.add_controller(bounding_controller(leg, p, angle_joint=angles[leg], leg_joint=lj.name, actuator=act.name))
         _swing(mdl, leg, hip, Rb @ np.array(HIP_AXIS), getattr(p, f"leg_angle_{leg}"), drive.beta if model == "II" else None)
     mdl.scout2 = Scout2Info(model, per, p, drive, hips, legs, angles, motors, _parameter_table(p, model, per, drive))
     return mdl
@@ -361,7 +381,7 @@ def _swing(mdl, leg, hip, axis, angle, beta):
         part.velocity = body.velocity + np.cross(body.angular_velocity, part.position - body.position)
 
 
-def bounding_controller(leg: str, p: Scout2Params, drive: DCMotorDrive, *, angle_joint: str, leg_joint: str, actuator: str) -> StateMachine:
+def bounding_controller(leg: str, p: Scout2Params, *, angle_joint: str, leg_joint: str, actuator: str) -> StateMachine:
     """The constant-touchdown-angle bounding controller of one virtual leg (seed 003 §3.1).
 
     States (``LEG_STATES``, the index in ``result.controller(name).state[:, 0]``):
@@ -383,12 +403,14 @@ def bounding_controller(leg: str, p: Scout2Params, drive: DCMotorDrive, *, angle
     ``touchdown_front``, ``sweep_back``, ``sweep_front`` [rad]; ``flight_kp``, ``flight_kd``,
     ``brake_kp``, ``brake_kd`` for the virtual leg; ``touchdown_compression``,
     ``liftoff_compression`` [m]; added by :func:`scout2`), so
-    ``system.with_params(touchdown_front=...)`` changes them without recompiling.
+    ``system.with_params(touchdown_front=...)`` changes them without recompiling. So are the
+    retraction law's drive numbers (``retraction_tau_max`` τ_max [N m], ``retraction_A`` A
+    [N m s/rad], ``retraction_tau_limit`` α K_T i_max [N m]): :func:`scout2` derives them from
+    the virtual drive; they are the controller's model of the drive, so changing the drive's
+    parameters (``joint_actuator_drive_*``) with ``with_params`` leaves them as they are. A
+    design with another drive is ``scout2(..., drive=...)``, which shares the compiled model.
+    The sample period is structure (the controller's clock).
     """
-    tau_max = float(drive.tau_max)  # α K_T V / R_a at V = 36 V (Eq. 4), virtual motor
-    A = float(drive.A)
-    tau_lim = float(drive.tau_current_limit)  # α K_T i_max (Eq. 6)
-
     def phi(s):
         return s.joint_angle(angle_joint), s.joint_rate(angle_joint)
 
@@ -401,8 +423,8 @@ def bounding_controller(leg: str, p: Scout2Params, drive: DCMotorDrive, *, angle
 
     def retraction(t, s, mem):
         a, ad = phi(s)
-        tau = -tau_max + A * ad  # Eq. 3
-        tau = jnp.maximum(tau, -tau_lim)  # Eq. 6
+        tau = -s.variable("retraction_tau_max") + s.variable("retraction_A") * ad  # Eq. 3
+        tau = jnp.maximum(tau, -s.variable("retraction_tau_limit"))  # Eq. 6
         return {actuator: jnp.minimum(tau, 0.0)}  # Eq. 7
 
     def brake(t, s, mem):
