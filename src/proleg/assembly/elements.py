@@ -50,14 +50,46 @@ class AbstractGroup:
         return 0.0
 
 
+class MarkerLoads:
+    """Loads at marker rows, not yet summed per marker: blocks (selection, force rows, torque
+    rows), each row adding (F, T) [N, N·m, ground] to the marker its selection picks.
+
+    A group's ``loads`` returns one; unpacked (``Fm, Tm = loads``) it sums itself into (nm, 3)
+    force and torque arrays, and :func:`~proleg.assembly.system.element_loads` instead joins
+    every group's blocks and sums them all with one gather (:func:`sum_marker_loads`): each sum
+    is a kernel launch of its own on XLA-CPU, and a robot's servos, dampers and contacts had
+    four each per evaluation."""
+
+    __slots__ = ("nm", "blocks")
+
+    def __init__(self, nm: int, blocks):
+        self.nm, self.blocks = int(nm), list(blocks)
+
+    def __iter__(self):
+        return iter(sum_marker_loads(self.nm, self.blocks))
+
+
+def sum_marker_loads(nm: int, blocks):
+    """(Fm, Tm) (nm, 3) each: the rows of ``blocks`` [(Select, F (k, 3), T (k, 3))] summed per
+    marker by one gather-and-sum (Select.T)."""
+    from .select import Select
+
+    blocks = [b for b in blocks if len(b[0])]
+    if not blocks:
+        return jnp.zeros((nm, 3)), jnp.zeros((nm, 3))
+    idx = np.concatenate([b[0].idx for b in blocks])
+    rows = jnp.concatenate([jnp.concatenate([F, T], 1) for _, F, T in blocks], 0)
+    out = Select(idx, nm).T @ rows
+    return out[:, :3], out[:, 3:]
+
+
 def pair_loads(oh_i, oh_j, F, T, delta):
-    """Per-marker accumulations for action F, T on I and reaction on J (with moment arm).
+    """Loads of action F, T on I and reaction on J (with moment arm), as :class:`MarkerLoads`.
     ``F`` or ``T`` None: no force (a pure torque element) or no torque (a pure force element)."""
     if F is None:
-        return jnp.zeros((oh_i.n, 3), T.dtype), oh_i.T @ T - oh_j.T @ T
-    Fm = oh_i.T @ F - oh_j.T @ F
-    Tm = -(oh_j.T @ jnp.cross(delta, F)) if T is None else oh_i.T @ T + oh_j.T @ (-T - jnp.cross(delta, F))
-    return Fm, Tm
+        return MarkerLoads(oh_i.n, [(oh_i, jnp.zeros_like(T), T), (oh_j, jnp.zeros_like(T), -T)])
+    TJ = -jnp.cross(delta, F) if T is None else -T - jnp.cross(delta, F)
+    return MarkerLoads(oh_i.n, [(oh_i, F, jnp.zeros_like(F) if T is None else T), (oh_j, -F, TJ)])
 
 
 class TwoMarkerGroup(AbstractGroup):

@@ -21,6 +21,7 @@ from ..errors import ModelError, ProlegWarning
 from ..model.model import Model
 from ..spatial.rotation import G_of_p, L_of_p, mtv, mv, p_from_matrix
 from .constraints import ConstraintTopology, constraint_values
+from .elements import MarkerLoads, sum_marker_loads
 from .kinematics import StateView as StateView
 from .kinematics import kinematics
 from .select import Select
@@ -234,13 +235,20 @@ def element_loads(system: System, bk, mk, t, z=None):
     topo, P = system.topo, system.params
     ctx = StateView(topo, bk, mk, t, z, P)
     nm = len(topo.marker_names)
-    Fm = jnp.zeros((nm, 3))
-    Tm = jnp.zeros((nm, 3))
+    Fm = Tm = None
+    blocks = []  # the groups' MarkerLoads rows, summed per marker at once
     for g in topo.groups + topo.extensions:
         if len(g) and hasattr(g, "loads"):
-            F, T = g.loads(P, mk, t, ctx)
-            Fm, Tm = Fm + F, Tm + T
-    return Fm, Tm
+            out = g.loads(P, mk, t, ctx)
+            if isinstance(out, MarkerLoads):
+                blocks += out.blocks
+            else:
+                F, T = out
+                Fm, Tm = (F, T) if Fm is None else (Fm + F, Tm + T)
+    if blocks:
+        F, T = sum_marker_loads(nm, blocks)
+        return (F, T) if Fm is None else (Fm + F, Tm + T)
+    return (jnp.zeros((nm, 3)), jnp.zeros((nm, 3))) if Fm is None else (Fm, Tm)
 
 
 def body_loads(system: System, bk, mk, t, z=None):
