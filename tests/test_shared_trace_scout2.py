@@ -59,7 +59,9 @@ def test_two_scout2_designs_are_one_structure_and_read_only_params(variant):
         assert not np.array_equal(np.asarray(a.params["joint_actuator_belt_drag"]), np.asarray(b.params["joint_actuator_belt_drag"]))
 
 
-@pytest.mark.parametrize("variant", ["I", "II"])
+# Model II's run (belt stage, leg friction) adds ~50 s of compile to the fast suite: slow; its
+# structure and params test above stays fast.
+@pytest.mark.parametrize("variant", ["I", pytest.param("II", marks=pytest.mark.slow)])
 def test_a_second_scout2_design_runs_on_the_first_ones_executables(cache, monkeypatch, variant):
     """The default design compiles; the second (another drive and leg length) is decided once and
     then exports nothing; its answer equals a compile of its own to round-off (RTOL of
