@@ -53,7 +53,7 @@ import numpy as np
 from ..errors import ModelError
 from ..spatial.rotation import A_of_p, G_of_p, mm, mv, p_of_A
 from .constraints import ROW_KINDS, build_constraint_topology, constraint_values
-from .kinematics import BodyKin, marker_kin
+from .kinematics import BodyKin, MarkerKin
 from .sparsity import Coloring
 from .constraints import _joint_rows
 from .system import System, body_loads, element_power
@@ -338,45 +338,51 @@ class JointCoordinates:
         """Part poses by forward kinematics: r (nb+1, 3), A (nb+1, 3, 3) (ground last), and per
         part the signed joint axis z (nb, 3) and the outboard marker origin o (nb, 3).
 
-        One vectorised step per depth level; each level gathers its parents from the
-        concatenation of the levels before it (gathers, not scatters: XLA-CPU scatters run
-        element by element, select.py)."""
+        Each jointed part's pose relative to its parent is one local 3×6 block computed for all
+        parts at once before the levels, [C_in R_z(σθ) C_outᵀ | d | σ z_in | o_in] (rotation,
+        COM offset d = o_in − Rel s_out, axis and joint origin in the parent's frame, o_in =
+        s_in + σ s z_in); each depth level is then a gather of its parents' [A | r] and one
+        batched product with those blocks. Fewer, larger kernels than composing the markers'
+        rotations level by level (bench/step_kernels.py). Gathers, not scatters: XLA-CPU
+        scatters run element by element (select.py)."""
         T, P = self.tree, self.system.params
         nb = T.parent.size
         dt = x.dtype
         nf = T.floating.size
         c = T.float_col[:, None]
-        r_blk = [jnp.concatenate([x[c + np.arange(3)].reshape(nf, 3), jnp.zeros((1, 3), dt)], 0)]
-        A_blk = [jnp.concatenate([A_of_p(x[c + 3 + np.arange(4)].reshape(nf, 4)), jnp.eye(3, dtype=dt)[None]], 0)]
+        r0 = jnp.concatenate([x[c + np.arange(3)].reshape(nf, 3), jnp.zeros((1, 3), dt)], 0)
+        A0 = jnp.concatenate([A_of_p(x[c + 3 + np.arange(4)].reshape(nf, 4)), jnp.eye(3, dtype=dt)[None]], 0)
+        blk = [jnp.concatenate([A0, r0[:, :, None]], 2)]  # [A | r] per part, (n, 3, 4)
         z_blk, o_blk = [jnp.zeros((nf + 1, 3), dt)], [jnp.zeros((nf + 1, 3), dt)]
-        xe = jnp.concatenate([x, jnp.zeros(1, dt)])
-        th, s = T.sigma * xe[T.rot_col], xe[T.trans_col]
         if T.levels:  # (a model of free parts may have no markers at all)
-            C = P["marker_C"]
-            C_in, C_out = C[T.m_in], C[T.m_out]
-            s_in, s_out = P["marker_s"][T.m_in], P["marker_s"][T.m_out]
-        start = 0  # first position of the last block
-        for idx, ppos in zip(T.levels, T.level_parent_pos):
-            if np.all(ppos >= start):  # parents all in the last block (always, by BFS depth): no concatenation
-                rr, AA = r_blk[-1][ppos - start], A_blk[-1][ppos - start]
-            else:
-                rr, AA = jnp.concatenate(r_blk, 0)[ppos], jnp.concatenate(A_blk, 0)[ppos]
-            start += r_blk[-1].shape[0]
-            A_in = mm(AA, C_in[idx])
-            ct, st = jnp.cos(th[idx]), jnp.sin(th[idx])
-            # A_out = A_in R_z(σθ): columns (c x + s y, −s x + c y, z) of A_in
-            xa, ya, za = A_in[:, :, 0], A_in[:, :, 1], A_in[:, :, 2]
-            A_out = jnp.stack([ct[:, None] * xa + st[:, None] * ya, ct[:, None] * ya - st[:, None] * xa, za], -1)
-            Ac = jnp.sum(A_out[:, :, :, None] * C_out[idx][:, None, :, :].swapaxes(-1, -2), -2)  # A_out C_outᵀ
-            z = T.sigma[idx, None] * za
-            o = rr + mv(AA, s_in[idx]) + z * s[idx, None]
-            r_blk.append(o - mv(Ac, s_out[idx]))
-            A_blk.append(Ac)
-            z_blk.append(z)
-            o_blk.append(o)
+            jp = np.concatenate(T.levels)  # the jointed parts, level by level
+            xe = jnp.concatenate([x, jnp.zeros(1, dt)])
+            th, sl = T.sigma[jp] * xe[T.rot_col[jp]], xe[T.trans_col[jp]]
+            C, S = P["marker_C"], P["marker_s"]
+            C_in, C_out, s_in, s_out = C[T.m_in[jp]], C[T.m_out[jp]], S[T.m_in[jp]], S[T.m_out[jp]]
+            ct, st = jnp.cos(th)[:, None], jnp.sin(th)[:, None]
+            xa, ya, za = C_in[:, :, 0], C_in[:, :, 1], C_in[:, :, 2]
+            # C_in R_z(σθ): columns (c x + s y, −s x + c y, z) of C_in, then times C_outᵀ
+            Rel = mm(jnp.stack([ct * xa + st * ya, ct * ya - st * xa, za], -1), jnp.swapaxes(C_out, -1, -2))
+            a_loc = T.sigma[jp, None] * za
+            o_loc = s_in + a_loc * sl[:, None]
+            L = jnp.concatenate([Rel, (o_loc - mv(Rel, s_out))[:, :, None], a_loc[:, :, None], o_loc[:, :, None]], 2)
+            start, first = 0, 0  # first position of the last block; first row of the level in L
+            for idx, ppos in zip(T.levels, T.level_parent_pos):
+                if np.all(ppos >= start):  # parents all in the last block (always, by BFS depth): no concatenation
+                    Pp = blk[-1][ppos - start]
+                else:
+                    Pp = jnp.concatenate(blk, 0)[ppos]
+                start += blk[-1].shape[0]
+                W = mm(Pp[:, :, :3], L[first : first + idx.size])  # (k, 3, 6)
+                first += idx.size
+                rr = Pp[:, :, 3]
+                blk.append(jnp.concatenate([W[:, :, :3], (rr + W[:, :, 3])[:, :, None]], 2))
+                z_blk.append(W[:, :, 4])
+                o_blk.append(rr + W[:, :, 5])
         pos = T.body_pos
-        r, A = jnp.concatenate(r_blk, 0)[pos], jnp.concatenate(A_blk, 0)[pos]
-        return r, A, jnp.concatenate(z_blk, 0)[pos[:nb]], jnp.concatenate(o_blk, 0)[pos[:nb]]
+        PA = jnp.concatenate(blk, 0)[pos]
+        return PA[:, :, 3], PA[:, :, :3], jnp.concatenate(z_blk, 0)[pos[:nb]], jnp.concatenate(o_blk, 0)[pos[:nb]]
 
     def _subspace(self, x, r, axis, o_out):
         """Motion subspace S (nq, 6) about the ground origin, angular part first."""
@@ -411,8 +417,14 @@ class JointCoordinates:
         return BodyKin(r, p0, A, rd, w)
 
     def _markers(self, bk):
+        """Marker kinematics (kinematics.marker_kin) with one gather of the parts' [A, ω, ṙ, r]
+        rows instead of one per quantity."""
         P = self.system.params
-        return marker_kin(self.system.topo.marker_oh, P["marker_s"], P["marker_C"], bk)
+        nm = P["marker_s"].shape[0]
+        rows = self.system.topo.marker_oh @ jnp.concatenate([bk.A.reshape(-1, 9), bk.w, bk.rd, bk.r], 1)
+        Ab, w = rows[:, :9].reshape(nm, 3, 3), rows[:, 9:12]
+        s = mv(Ab, P["marker_s"])
+        return MarkerKin(rows[:, 15:] + s, mm(Ab, P["marker_C"]), rows[:, 12:15] + jnp.cross(w, s), w, Ab, s)
 
     def kinematics(self, x, xd):
         """(body, marker) kinematics at (x, ẋ) straight from the tree (what element laws and
@@ -454,12 +466,14 @@ class JointCoordinates:
         P = self.system.params
         nb = self.tree.parent.size
         A = A[:nb]
-        Ic = jnp.einsum("bij,bjk,blk->bil", A, P["body_inertia"], A)
+        # (batched 3×3 products as broadcast-and-sum: fused loops, where an einsum with a batch
+        # axis is a dot kernel each on XLA-CPU; spatial/rotation.py)
+        Ic = mm(mm(A, P["body_inertia"]), jnp.swapaxes(A, -1, -2))
         m = P["body_mass"][:, None, None]
         from ..spatial.rotation import skew
 
         cx = skew(r[:nb])
-        top = jnp.concatenate([Ic - m * cx @ cx, m * cx], 2)
+        top = jnp.concatenate([Ic - m * mm(cx, cx), m * cx], 2)
         bot = jnp.concatenate([-m * cx, m * jnp.eye(3, dtype=r.dtype)], 2)
         return jnp.concatenate([top, bot], 1)
 
@@ -471,7 +485,7 @@ class JointCoordinates:
     def _crba(self, S, I):
         T = self.tree
         Ic = jnp.einsum("bk,bij->kij", jnp.asarray(T.anc), I)  # composite inertia of each coordinate's part
-        F = jnp.einsum("kij,kj->ki", Ic, S)
+        F = mv(Ic, S)
         Gm = F @ S.T  # G[k, l] = S_kᵀ I^c_k S_l
         low = T.anc[T.dof_body] > 0  # l on the path to k's part (l ≤ k)
         return jnp.where(low, Gm, 0.0) + jnp.where(low.T & ~low, Gm.T, 0.0)
@@ -533,9 +547,9 @@ class JointCoordinates:
         if xdd is not None:  # S ẍ per coordinate (Ṡ ẋ is in the bias; Ġ ṗ = 0 for the floating p)
             c = c + S * xdd[:, None]
         acc = anc @ c - jnp.concatenate([jnp.zeros(3, x.dtype), P["gravity"]])
-        h = jnp.einsum("bij,bj->bi", I, V)
+        h = mv(I, V)
         vxf = jnp.concatenate([jnp.cross(V[:, :3], h[:, :3]) + jnp.cross(V[:, 3:], h[:, 3:]), jnp.cross(V[:, :3], h[:, 3:])], 1)
-        f = jnp.einsum("bij,bj->bi", I, acc) + vxf - fext
+        f = mv(I, acc) + vxf - fext
         return -jnp.sum(S * (anc.T @ f), 1)
 
     def _loop_rows(self, x, t):
