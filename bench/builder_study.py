@@ -4,9 +4,16 @@ over N pin stiffnesses of one assembled leg (``with_params``), both ``executor="
 same drop (8-bushing leg, ``t_end`` 0.1 s), in one process from a fresh compile cache.
 
 Columns: wall time [s] of ``study.run()``, designs per second, traces (lowered functions
-exported by the compile cache) and groups (compiled batches) of the run.
+exported by the compile cache), shared loads (a function of another model of the same structure
+loaded instead of traced) and groups (compiled ``vmap`` batches: ``proleg.sweep`` calls) of the run.
 
-    python bench/builder_study.py [--n 64] [--t-end 0.1] [--out bench/results/builder_study.md]
+    python bench/builder_study.py [--n 64] [--t-end 0.1] [--out bench/results/builder_study.md] [--z0-structure]
+
+``--z0-structure`` declares a DiscreteController's initial state ``z0`` structure for the run:
+the leg's pin servo's ``z0`` (the initial controller state, a topology number) is read by its
+simulation, so the structure check of ``analyses.structure.simulation_key`` refuses the leg and
+the builder study traces every build to group it (``executors._shape_key``,
+bench/builder_study_profile.py); the flag measures the model change before it lands.
 """
 
 from __future__ import annotations
@@ -29,6 +36,7 @@ def main():
     ap.add_argument("--n", type=int, default=64)
     ap.add_argument("--t-end", type=float, default=0.1)
     ap.add_argument("--out", default=os.path.join(os.path.dirname(__file__), "results", "builder_study.md"))
+    ap.add_argument("--z0-structure", action="store_true", help="DiscreteController.z0 declared structure for this run")
     args = ap.parse_args()
     os.environ["PROLEG_CACHE_DIR"] = tempfile.mkdtemp(prefix="proleg-builder-study-")
     warnings.simplefilter("ignore")
@@ -38,6 +46,21 @@ def main():
     from proleg.papers.hyq_study import peak_hip_force, peak_knee_force, pin_stiffness_apply
     from proleg.study import LogRange
 
+    if args.z0_structure:
+        from proleg.model.control import DiscreteController
+
+        DiscreteController._structure_fields = (*DiscreteController._structure_fields, "z0")
+
+    import proleg.analyses.sweep as sweep_module
+
+    sweeps = {"n": 0}  # compiled batches: one proleg.sweep call per group of a batch (executors.evaluate_batch)
+    sweep0 = sweep_module.sweep
+
+    def counted_sweep(*a, **k):
+        sweeps["n"] += 1
+        return sweep0(*a, **k)
+
+    sweep_module.sweep = counted_sweep
     outputs = {"peak_hip_force": peak_hip_force, "peak_knee_force": peak_knee_force}
     sim = dict(t_end=args.t_end, dt_output=1e-3, dt_max=1e-3, rtol=1e-6, atol=1e-7)  # the bushing study's options
     rows = []
@@ -47,21 +70,22 @@ def main():
         ("builder study: cylinder length 0.16-0.24 m (assemble per design)",
          lambda: pl.study.Study(lambda cylinder_length: leg(cylinder_length, 0.30), {"cylinder_length": (0.16, 0.24)}, outputs, sim)),
     ):
-        before = dict(cc.stats)
+        before, sweeps["n"] = dict(cc.stats), 0
         study = make()
         t0 = time.perf_counter()
         table = study.run(design="grid", n=args.n, executor="vmap", store=tempfile.mkdtemp(prefix="proleg-builder-study-store-"), progress=False)
         wall = time.perf_counter() - t0
         ok = int((table["status"] == "success").sum()) if "status" in table else len(table)
         rows.append(dict(case=name, designs=len(table), ok=ok, wall=wall, rate=len(table) / wall,
-                         traces=cc.stats["exported"] - before["exported"], shared=cc.stats["shared"] - before["shared"]))
-    lines = ["| study | designs | succeeded | wall [s] | designs/s | traces | shared loads |", "|---|---|---|---|---|---|---|"]
+                         traces=cc.stats["exported"] - before["exported"], shared=cc.stats["shared"] - before["shared"], groups=sweeps["n"]))
+    lines = ["| study | designs | succeeded | wall [s] | designs/s | traces | shared loads | groups |", "|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        lines.append(f"| {r['case']} | {r['designs']} | {r['ok']} | {r['wall']:.1f} | {r['rate']:.2f} | {r['traces']} | {r['shared']} |")
+        lines.append(f"| {r['case']} | {r['designs']} | {r['ok']} | {r['wall']:.1f} | {r['rate']:.2f} | {r['traces']} | {r['shared']} | {r['groups']} |")
     load = os.getloadavg()[0]
     text = "\n".join([
         "# Builder study against a parameter study (bench/builder_study.py)", "",
-        f"HyQ leg with 8 bushings, {args.t_end} s drop, executor vmap, one process, fresh compile cache; "
+        f"HyQ leg with 8 bushings, {args.t_end} s drop, executor vmap, one process, fresh compile cache"
+        f"{' (DiscreteController.z0 declared structure: --z0-structure)' if args.z0_structure else ''}; "
         f"load average {load:.1f} at the end on {os.cpu_count()} CPUs. Rate ratio (builder / System): "
         f"{rows[1]['rate'] / rows[0]['rate']:.2f}.", "", *lines, "",
     ])

@@ -308,12 +308,12 @@ def test_the_default_executor(monkeypatch):
     from proleg.study.executors import default_executor
 
     # the rule of default_executor's docstring (measured figures there)
-    assert default_executor("system", "cpu") == "vmap" and default_executor("builder", "cpu") == "processes"
+    assert default_executor("system", "cpu") == "vmap" and default_executor("builder", "cpu") == "processes"  # one structure not known
     assert default_executor("system", "gpu") == "vmap" and default_executor("builder", "cuda") == "vmap"  # one process holds the device
     assert default_executor("function", "gpu") == "processes"
     # executor=None and "auto" both take it
     seen = []
-    monkeypatch.setattr(executors, "default_executor", lambda kind: seen.append(kind) or "local")
+    monkeypatch.setattr(executors, "default_executor", lambda kind, **kw: seen.append(kind) or "local")
     st = pl.study.Study.function(lambda x: {"y": 2 * x}, {"x": [1.0, 2.0]}, ["y"])
     assert st.run(design="grid", executor="auto", progress=False)["y"].tolist() == [2.0, 4.0]
     st.run(design="grid", progress=False)

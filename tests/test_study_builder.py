@@ -96,6 +96,26 @@ def test_a_motion_capturing_a_builder_argument_splits_the_group():
 
 
 
+def test_a_builder_of_one_structure_runs_in_this_process_as_one_vmap_batch_by_default():
+    # default_executor's CPU rule (issue 42; measured figures in its docstring): a builder whose
+    # first and last designs build one structure is "vmap"; where they may not, "processes"
+    from proleg.study import executors as ex
+
+    one = [("a", {"length": 0.8, "k": 50.0}), ("b", {"length": 1.25, "k": 120.0})]
+    two = [("a", {"length": 1.0, "k": 50.0, "amp": 2.0}), ("b", {"length": 1.0, "k": 50.0, "amp": 3.0})]
+    assert ex.builds_share_structure(pendulum, one, KW)
+    assert not ex.builds_share_structure(pendulum, two, KW)  # amp is a constant of the compiled law: two structures
+    assert not ex.builds_share_structure(lambda length, k: 1 / 0, one, KW)  # a build that fails: not known
+    assert ex.default_executor("builder", "cpu", one_structure=True) == "vmap"
+    assert ex.default_executor("builder", "cpu", one_structure=lambda: False) == "processes"
+    assert ex.default_executor("builder", "cpu") == "processes"  # not known
+    assert ex.default_executor("builder", "gpu", one_structure=lambda: 1 / 0) == "vmap"  # asked only where it matters
+    st = pl.study.Study(pendulum, space={"length": [0.8, 1.25], "k": 50.0}, outputs=OUTPUTS, simulate=KW)
+    tab, n_compiled = count_sweep_compilations(lambda: st.run(design="grid", progress=False))
+    assert list(tab["status"]) == ["success", "success"] and tab["x_tip"].nunique() == 2
+    assert n_compiled == 1 and set(tab["worker"]) == {ex._worker_name()}  # one compile, in this process
+
+
 def test_a_batch_whose_values_do_not_reach_the_state_still_reports_its_status():
     # an ``apply`` that keeps the built system (its numbers are constants of the build, as
     # FLEGX's study does) runs the batched simulation untraced: the status must still reach

@@ -31,17 +31,23 @@ DEFAULT_TIMEOUT_S = 10.0  # connecting to a scheduler address
 SUBSTITUTED = r"sweep of .*cannot run variants in a vmap batch"
 
 
-def default_executor(kind: str, backend: str | None = None) -> str:
+def default_executor(kind: str, backend: str | None = None, *, one_structure=None) -> str:
     """The executor of ``executor=None`` or ``"auto"`` for a study of ``kind`` ("system",
-    "builder" or "function") on JAX's ``backend`` (default: this process's).
+    "builder" or "function") on JAX's ``backend`` (default: this process's). ``one_structure``:
+    whether a builder's designs build one structure (a bool, or a function returning it,
+    called only where the answer matters: :func:`builds_share_structure` of the pending
+    designs); None: not known.
 
     - a function study: "processes" (FE solves and closed forms are plain Python, one call
       per variant; worker processes use the cores);
     - on a GPU (any backend but the CPU): "vmap", for a System and for a builder alike: one
       process holds the device and runs each compiled group as one batch (worker processes
       would each take the device's memory, JAX preallocating 75 % of it per process);
-    - on the CPU: "vmap" for a System, "processes" for a builder (whose builds and traces,
-      plain Python, then run on every core).
+    - on the CPU: "vmap" for a System, and for a builder whose designs build one structure
+      (issue 42: the one group is one compile and one batch in this process, where each
+      worker process would compile it again); "processes", the earlier default, kept for a
+      builder whose designs may build several structures (several compiles, which worker
+      processes run side by side; not measured again) or where that is not known.
 
     Measured (``bench/study_throughput.py --model hyq``, the HyQ 8-bushing drop over 1e6–1e10
     N/m, and bench/vmap_batch.py; figures in docs/performance.md): a vmap batch runs until its
@@ -49,14 +55,44 @@ def default_executor(kind: str, backend: str | None = None) -> str:
     one by one (``"processes"`` with ``lanes=1`` was the fastest there), while variants that
     step alike run about 5× faster batched than in a loop. A study cannot know beforehand which it is, so the
     CPU default of a System study stays "vmap"; for stiffness studies over decades on CPU
-    cores pass ``executor="processes", lanes=1`` to :meth:`Study.run`."""
+    cores pass ``executor="processes", lanes=1`` to :meth:`Study.run`. A builder study of one
+    structure (``bench/builder_executor.py``: the HyQ 8-bushing leg over 16 cylinder lengths,
+    0.1 s drop, each executor from a fresh compile cache, 2 CPUs shared, load 5–8; two rounds,
+    bench/results/builder_executor.md) took 112 s and 74 s on "vmap" against 139 s and 117 s on
+    "processes" as the leg is (its pin servo's initial state ``z0`` is a topology number its
+    simulation reads, so each build is traced to be grouped), and 49 s and 54 s against 88 s
+    and 163 s with ``z0`` declared structure (``--z0-structure``: builds grouped by a hash):
+    one compile in one process beat two workers compiling the same group side by side, also
+    where "processes" spread the per-build traces over the cores."""
     import jax
 
     if kind == "function":
         return "processes"
-    if (backend or jax.default_backend()) != "cpu":
+    if (backend or jax.default_backend()) != "cpu" or kind != "builder":
         return "vmap"
-    return "processes" if kind == "builder" else "vmap"
+    if callable(one_structure):
+        one_structure = one_structure()
+    return "vmap" if one_structure else "processes"
+
+
+def builds_share_structure(builder, rows, simulate_kw: dict) -> bool:
+    """Whether a builder study's designs ``rows`` ([(key, {name: value})]) build one structure
+    (:func:`default_executor`'s CPU choice): the builds of the first and the last design have
+    one structure fingerprint of their simulation (:func:`_structure_fingerprint`: counts,
+    kinds, names, shapes, code and closures, the numbers that shape the computation; no trace).
+    Two builds and two hashes in this process: 0.9 s for the HyQ leg under load 8, plus the
+    set-up of a process's first ``assemble`` (2.6 s from a warm compile cache, 14 s from a cold
+    one), which a "vmap" study then does not pay again. False where either build fails or
+    cannot be keyed. A probe, not a proof: designs in between that build another structure
+    still run correctly under "vmap" (a group and a compile each), only one after another."""
+    picks = rows[:1] if len(rows) < 2 else [rows[0], rows[-1]]
+    keys = set()
+    for _, vals in picks:
+        try:
+            keys.add(_structure_fingerprint(builder(**vals), simulate_kw))
+        except Exception:  # noqa: BLE001 (a build that fails is the study's row to report, not the probe's)
+            return False
+    return len(keys) == 1 and None not in keys
 
 
 class Job:
@@ -101,11 +137,10 @@ def _shape_key(system, simulate_kw: dict) -> str:
     import jax
 
     from ..analyses.simulate import simulate, simulate_kwargs
-    from ..analyses.structure import simulation_key
     from ..assembly.system import System
 
     topo, kw = system.topo, simulate_kwargs(simulate_kw)
-    skey = simulation_key(system, functools.partial(_simulated, kw=tuple(sorted(kw.items()))))
+    skey = _structure_key(system, simulate_kw)
     if skey is not None:  # names, shapes and every static number are in the structure key
         return "structure-" + skey
     h = hashlib.sha1()
@@ -128,6 +163,40 @@ def _shape_key(system, simulate_kw: dict) -> str:
         h.update(f"{a.shape}{a.dtype}".encode())
         h.update(np.ascontiguousarray(a).tobytes() if a.dtype != object else repr(a).encode())
     return h.hexdigest()
+
+
+def _run_of(simulate_kw: dict):
+    """The function of a System alone that groups a build (:func:`_simulated` with the study's
+    simulate options)."""
+    from ..analyses.simulate import simulate_kwargs
+
+    kw = simulate_kwargs(simulate_kw)
+    return functools.partial(_simulated, kw=tuple(sorted(kw.items())))
+
+
+def _structure_key(system, simulate_kw: dict) -> str | None:
+    """The build's :func:`proleg.analyses.structure.simulation_key` for the study's simulate
+    options: a hash shared by every build of its structure, or None where the structure's
+    simulation reads a number of its topology (then :func:`_shape_key` traces the build)."""
+    from ..analyses.structure import simulation_key
+
+    return simulation_key(system, _run_of(simulate_kw))
+
+
+def _structure_fingerprint(system, simulate_kw: dict) -> str | None:
+    """The structure fingerprint that :func:`proleg.analyses.structure.simulation_key` keys its
+    decision by (the System's pytree structure with its topology's numbers left out, the leaves'
+    shapes, the simulation's code and options), without that decision: equal for two builds of
+    one structure whether or not its simulation reads a topology number. None: not keyable."""
+    import jax
+
+    from .. import compile_cache as cc
+
+    leaves, td = jax.tree_util.tree_flatten(system)
+    try:
+        return cc.structure_fingerprint(cc._environment_key(), td, tuple(cc._aval(x) for x in leaves), _run_of(simulate_kw))
+    except (cc.Unkeyable, TypeError):
+        return None
 
 
 def _simulated(system, kw):

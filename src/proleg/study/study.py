@@ -86,7 +86,8 @@ class Study:
         traced simulation (``executors._shape_key``): builds that differ only in parameter
         values (a link length, a stiffness) share one compiled ``vmap`` batch; a number the
         compiled code captures (a Motion's function of a builder argument) splits them. Each
-        build costs one trace of its simulation besides its ``assemble``
+        build costs its ``assemble`` and a hash where its structure's simulation reads no number
+        of its topology (decided once per structure), else a trace of its simulation
     space : {name: (lo, hi) | LogRange(lo, hi) | [choices] | fixed value}; names of
         ``system.with_params`` (or the builder's keywords)
     outputs : {name: function(Result) -> float}; an output that raises is recorded in its row
@@ -188,8 +189,9 @@ class Study:
         ``executor``: "vmap", "processes", "dask" (``scheduler``: an address such as
         "tcp://host:8786" or a ``distributed.Client``; default a LocalCluster of ``workers``
         processes) or "local" (this process, one batch at a time); None or "auto":
-        :func:`~proleg.study.executors.default_executor` ("vmap" for a System, and for a
-        builder on a GPU; "processes" for a builder on the CPU and for a function study).
+        :func:`~proleg.study.executors.default_executor` ("vmap" for a System, for a builder
+        on a GPU, and on the CPU for a builder whose first and last designs build one
+        structure; "processes" for other builders on the CPU and for a function study).
         "processes" and a LocalCluster spawn their workers, which run the user's script again:
         a study run from an unguarded top-level line of a script (no
         ``if __name__ == "__main__":``) is a ModelError at once. ``store``: a folder; what it
@@ -214,9 +216,8 @@ class Study:
         if "key" not in table.columns:
             table = table.copy()
             table.insert(0, "key", [variant_key({k: r[k] for k in self.space.dims}) for r in table.to_dict("records")])
-        if executor is None or executor == "auto":
-            executor = ex.default_executor(self.kind)
-        if not isinstance(executor, str) or executor not in EXECUTORS:
+        auto = executor is None or executor == "auto"  # resolved once the pending designs are known
+        if not auto and (not isinstance(executor, str) or executor not in EXECUTORS):
             raise ModelError(f"Study: unknown executor {executor!r}; valid: {[*EXECUTORS, 'auto']}.")
         if lanes is not None and (not isinstance(lanes, int) or isinstance(lanes, bool) or lanes < 1):
             raise ModelError(f"Study: lanes must be a positive integer or None (got {lanes!r}).")
@@ -228,6 +229,8 @@ class Study:
         todo = [(r["key"], {k: r[k] for k in self.space.dims}) for r in table.to_dict("records") if r["key"] not in done_keys]
         new_rows = []
         if todo:
+            if auto:
+                executor = ex.default_executor(self.kind, one_structure=lambda: ex.builds_share_structure(self.target, todo, self.simulate))
             new_rows = self._execute(todo, executor, st, batch_size, workers, scheduler, progress, on_batch, lanes)
         allrows = pd.concat([done, pd.DataFrame(new_rows)], ignore_index=True) if len(done) else pd.DataFrame(new_rows)
         allrows = allrows.drop_duplicates("key", keep="first").set_index("key")

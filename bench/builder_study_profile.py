@@ -1,0 +1,121 @@
+"""Where a builder study's time goes against a System study's (issue 42): the two studies of
+bench/builder_study.py (HyQ leg, 8 bushings; builder over cylinder length, System over pin
+stiffness), ``executor="vmap"``, in one process from a fresh compile cache, each stage timed:
+the builds (``hyq_leg`` + ``assemble``), the grouping keys (``executors._shape_key``), the
+sweep's compilation and run (``SweepResult.compile_time`` / ``wall_time``) and the outputs.
+
+    python bench/builder_study_profile.py [--n 8] [--t-end 0.02] [--executor vmap] [--only both|builder|system]
+        [--cprofile FILE] [--csv FILE] [--z0-structure]
+
+``--z0-structure`` declares a DiscreteController's initial state ``z0`` structure (hashed
+exactly in the structure key, not perturbed) for this run: the HyQ leg's pin servo's ``z0`` is
+a topology number its simulation reads (the initial controller state), so the structure check
+of ``analyses.structure.simulation_key`` refuses the leg and ``_shape_key`` traces every build
+(the measured cost this flag removes).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import time
+import warnings
+from collections import defaultdict
+
+
+def leg(cylinder_length, rod_length):
+    import proleg as pl
+
+    return pl.assemble(pl.robots.hyq_leg("bushings8", cylinder_length=float(cylinder_length), rod_length=float(rod_length)))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, default=8)
+    ap.add_argument("--t-end", type=float, default=0.02)
+    ap.add_argument("--executor", default="vmap")
+    ap.add_argument("--only", choices=("both", "builder", "system"), default="both")
+    ap.add_argument("--cprofile", default=None, help="write a cProfile of the builder study here")
+    ap.add_argument("--csv", default=None, help="write the builder study's rows here")
+    ap.add_argument("--z0-structure", action="store_true", help="DiscreteController.z0 declared structure for this run")
+    args = ap.parse_args()
+    os.environ["PROLEG_CACHE_DIR"] = tempfile.mkdtemp(prefix="proleg-builder-profile-")
+    warnings.simplefilter("ignore")
+    import proleg as pl
+    import proleg.analyses.sweep as sw
+    import proleg.compile_cache as cc
+    import proleg.study.executors as ex
+
+    from proleg.papers.hyq_study import peak_hip_force, peak_knee_force, pin_stiffness_apply
+    from proleg.study import LogRange
+
+    if args.z0_structure:
+        from proleg.model.control import DiscreteController
+
+        DiscreteController._structure_fields = (*DiscreteController._structure_fields, "z0")
+
+    spent, calls = defaultdict(float), defaultdict(int)
+
+    def timed(name, fn):
+        def wrapper(*a, **k):
+            calls[name] += 1
+            t0 = time.perf_counter()
+            try:
+                return fn(*a, **k)
+            finally:
+                spent[name] += time.perf_counter() - t0
+        return wrapper
+
+    sweep0 = sw.sweep
+
+    def sweep(*a, **k):
+        res = sweep0(*a, **k)
+        spent["sweep: compile"] += res.compile_time
+        spent["sweep: run"] += res.wall_time
+        return res
+
+    ex._shape_key = timed("grouping key (_shape_key)", ex._shape_key)
+    sw.sweep = timed("sweep (all)", sweep)
+    ex._outputs_of = timed("outputs", ex._outputs_of)
+    timed_leg = timed("build (hyq_leg + assemble)", leg)
+
+    outputs = {"peak_hip_force": peak_hip_force, "peak_knee_force": peak_knee_force}
+    sim = dict(t_end=args.t_end, dt_output=1e-3, dt_max=1e-3, rtol=1e-6, atol=1e-7)
+    cases = []
+    if args.only in ("both", "system"):
+        cases.append(("System (pin stiffness)", lambda: pl.study.Study(leg(0.20, 0.30), {"pin_stiffness": LogRange(1e6, 1e10)}, outputs, sim,
+                                                                  apply=pin_stiffness_apply)))
+    if args.only in ("both", "builder"):
+        cases.append(("builder (cylinder length)", lambda: pl.study.Study(lambda cylinder_length: timed_leg(cylinder_length, 0.30),
+                                                                     {"cylinder_length": (0.16, 0.24)}, outputs, sim)))
+    for name, make in cases:
+        spent.clear()
+        calls.clear()
+        before = dict(cc.stats)
+        study = make()
+        prof = None
+        if args.cprofile and name.startswith("builder"):
+            import cProfile
+
+            prof = cProfile.Profile()
+            prof.enable()
+        t0 = time.perf_counter()
+        table = study.run(design="grid", n=args.n, executor=args.executor, store=tempfile.mkdtemp(prefix="proleg-profile-store-"), progress=False)
+        wall = time.perf_counter() - t0
+        if prof is not None:
+            prof.disable()
+            prof.dump_stats(args.cprofile)
+        ok = int((table["status"] == "success").sum())
+        print(f"\n## {name}: {len(table)} designs ({ok} ok), executor {args.executor}, wall {wall:.1f} s, "
+              f"traces {cc.stats['exported'] - before['exported']}, shared loads {cc.stats['shared'] - before['shared']}, "
+              f"steps max {int(table['steps'].max())} mean {table['steps'].mean():.0f}, load {os.getloadavg()[0]:.1f}")
+        for k, v in sorted(spent.items(), key=lambda kv: -kv[1]):
+            print(f"  {k:32s} {v:8.2f} s" + (f"  ({calls[k]} calls)" if calls.get(k) else ""))
+        if args.csv and name.startswith("builder"):
+            table.to_csv(args.csv, index=False, float_format="%.17g")
+        print(table[[c for c in table.columns if c in (*study.space.dims, *outputs, "steps")]].to_string())
+
+
+if __name__ == "__main__":
+    main()
