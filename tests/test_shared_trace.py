@@ -335,3 +335,36 @@ def test_the_example_model_files_read_no_number_in_their_trace(name):
         return m
 
     _check_builder(lambda: load_model(path), changed)
+
+
+def _hold(z, state=None):
+    """A discrete controller's law: its state is the torque it holds (and keeps)."""
+    return z, {"motor": z[0]}
+
+
+def _held_torque(z0):
+    model = readme_pendulum(1.0)
+    model.add_actuator(pl.JointActuator("motor", "shoulder"))
+    model.add_controller(pl.DiscreteController("hold", lambda t, s, z: _hold(z), z0=[z0], outputs=["motor"], period=1e-2))
+    return model
+
+
+def test_a_discrete_controllers_initial_state_is_a_number_of_params():
+    """A DiscreteController's z0 is a parameter (``controller_state0``), not a number the trace
+    reads: two initial states share a simulation key, and the run follows each (the held torque
+    of 2 N m against none moves the pendulum). It was read at trace time, so a builder study over
+    the HyQ leg, whose pin servo is a DiscreteController, traced every design (issue 42)."""
+    from proleg.analyses.structure import simulation_key
+
+    def run(s):
+        return pl.simulate(s, t_end=0.05, dt_output=0.01, progress=False, throw=False).q
+
+    a, b = pl.assemble(_held_torque(0.0)), pl.assemble(_held_torque(2.0))
+    assert np.array_equal(np.asarray(b.params["controller_state0"]), [2.0])
+    assert numbers_read(a) == {}
+    ka = simulation_key(a, run)
+    assert ka is not None and simulation_key(b, run) == ka
+    qa, qb = np.asarray(run(a)), np.asarray(run(b))
+    assert np.max(np.abs(qa - qb)) > 1e-6
+    qc = np.asarray(run(a.with_params(controller_state0=np.array([2.0]))))
+    np.testing.assert_allclose(qc, qb, rtol=0, atol=1e-12)

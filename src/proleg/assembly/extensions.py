@@ -129,8 +129,12 @@ class ControllerGroup(AbstractGroup):
 
     def params(self):
         pids = [e for e in self.elements if e.kind == "pid"]
+        out = {}
+        dz = [e.z0 for e in self.elements if e.kind != "pid"]
+        if dz:  # the discrete controllers' initial states: numbers, so a design may change them
+            out["controller_state0"] = np.concatenate(dz)
         if not pids:
-            return {}
+            return out
         # Every number the sample reads is a parameter, so that a new gain, set point, limit,
         # lever or valve lag is a new argument, not a new compile (issue 42). Which of them a PID
         # has (a set point or none, a limit or none, a constant or a callable lever, a valve
@@ -139,7 +143,7 @@ class ControllerGroup(AbstractGroup):
             return neutral if x is None or callable(x) else float(x)
 
         taus = [getattr(self.actuators.get(e.actuator_ref), "valve_time_constant", None) for e in pids]
-        return {
+        return out | {
             "controller_kp": np.array([e.kp for e in pids]),
             "controller_kd": np.array([e.kd for e in pids]),
             "controller_ki": np.array([e.ki for e in pids]),
@@ -150,10 +154,19 @@ class ControllerGroup(AbstractGroup):
         }
 
     def z0(self, P):
-        parts = []
+        """The controllers' initial z: a PID's [u, ∫e, command] zero, a discrete controller's
+        own initial state from ``P["controller_state0"]`` (so that a trace reads no model
+        number: issue 42) and its outputs zero."""
+        # NumPy where the parameters are (no eager JAX op, each a small compile), else traced
+        xp = np if isinstance(P.get("controller_state0", np.zeros(0)), np.ndarray) else jnp
+        parts, k = [], 0
         for e in self.elements:
-            parts.append(np.zeros(3) if e.kind == "pid" else np.concatenate([e.z0, np.zeros(len(e.outputs))]))
-        return jnp.asarray(np.concatenate(parts)) if parts else jnp.zeros(0)
+            if e.kind == "pid":
+                parts.append(xp.zeros(3))
+            else:
+                parts.append(xp.concatenate([P["controller_state0"][k : k + e.z0.size], xp.zeros(len(e.outputs))]))
+                k += e.z0.size
+        return xp.concatenate(parts) if parts else xp.zeros(0)
 
     def sample(self, P, t, q, v, z, system, first=False, kin=None):
         """z after a sample at t: every controller whose clock ticks at t (or all, ``first``)
