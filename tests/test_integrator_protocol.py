@@ -187,8 +187,13 @@ def test_each_method_gives_the_result_it_gave_before_the_protocol(name):
     r = pl.simulate(pl.assemble(double_pendulum()), 0.5, 0.05, integrator=ig, progress=False)
     q, v = np.asarray(ref["q"]), np.asarray(ref["v"])
     assert r.stats["steps"] == ref["steps"]
-    np.testing.assert_allclose(np.asarray(r.q), q, rtol=0, atol=1e-12 * np.abs(q).max())
-    np.testing.assert_allclose(np.asarray(r.v), v, rtol=0, atol=1e-12 * np.abs(v).max())
+    # Kvaerno5's own Newton iteration (Diffrax) stops at its tolerance, so round-off in the
+    # right-hand side (the joint-coordinate kinematics' products were reassociated for fewer
+    # kernels, issue 43: 5.9e-12 of the scale) comes out amplified; 1e-11 is still far below
+    # any change of method or arithmetic path (the error itself is ~1e-7).
+    tol = 1e-11 if name == "Kvaerno5" else 1e-12
+    np.testing.assert_allclose(np.asarray(r.q), q, rtol=0, atol=tol * np.abs(q).max())
+    np.testing.assert_allclose(np.asarray(r.v), v, rtol=0, atol=tol * np.abs(v).max())
 
 
 # -- accuracy at the defaults (reduced length; full length in bench/accuracy.py) ------------------

@@ -233,9 +233,9 @@ class Planar:
         return self._Tt(dp, generalized_forces(self.system, q, self._T(dp, xd), t, z))
 
     def inverse_dynamics(self, x, xd, a, t, z=None):
-        """Tᵀ(M T a − Q): the reduced residual without the constraint forces (one map of each)."""
-        q, dp = self._frames(x)
-        return self._Tt(dp, mass_action(self.system, q, self._T(dp, a)) - generalized_forces(self.system, q, self._T(dp, xd), t, z))
+        """Tᵀ M T a − Tᵀ Q: the reduced residual without the constraint forces (each reduced on
+        its own, the arithmetic of the α-methods' residual before it was one call)."""
+        return self.mass_action(x, a) - self.generalized_forces(x, xd, t, z)
 
     def power_terms(self, x, xd, t, z=None):
         q, dp = self._frames(x)

@@ -361,10 +361,13 @@ def iteration_matrix(dyn, q1, v1, t1, z, bp, cv, mfac):
 
     def g(y):
         dq = y[col.color]  # the seed matrix product S @ y as a gather
-        # mfac·M(q1) dq − Q(q1 + dq, v1 + cv dq)/β' through the inverse dynamics: at y = 0 the
-        # derivative of M(q1 + dq)(mfac β' dq) is M(q1) mfac β' exactly, and the coordinate set's
-        # kinematics are traced once instead of once for M and once for Q.
-        Rq = dyn.inverse_dynamics(q1 + dq, v1 + cv * dq, (mfac * bp) * dq, t1, z) / bp
+        if dyn.kind == "joint":
+            # mfac·M(q1) dq − Q(q1 + dq, v1 + cv dq)/β' through the inverse dynamics: at y = 0
+            # the derivative of M(q1 + dq)(mfac β' dq) is M(q1) mfac β' exactly, and the tree's
+            # kinematics are traced once instead of once for M and once for Q.
+            Rq = dyn.inverse_dynamics(q1 + dq, v1 + cv * dq, (mfac * bp) * dq, t1, z) / bp
+        else:  # (M is cheap and its own in absolute and planar coordinates)
+            Rq = mfac * dyn.mass_action(q1, dq) - dyn.generalized_forces(q1 + dq, v1 + cv * dq, t1, z) / bp
         return jnp.concatenate([Rq, dyn.constraints(q1 + dq, t1)])
 
     Jc = jax.jacfwd(g)(jnp.zeros(col.ncolors, q1.dtype))[:, col.color]
