@@ -10,7 +10,8 @@ workers' start included), designs per second, load average at the end.
 
     python bench/builder_executor.py --executor vmap [--n 16] [--t-end 0.1] [--z0-structure]
 
-``--z0-structure`` declares a DiscreteController's initial state ``z0`` structure for the run
+``--z0-structure`` (obsolete since 47a7fad made z0 a parameter, ``controller_state0``; kept to reproduce the
+earlier results) declares a DiscreteController's initial state ``z0`` structure for the run
 (in the workers too: the builder sets it), the model change this bench measures before it
 lands: the leg's pin servo's ``z0`` is a topology number its simulation reads, so without it
 ``executors._shape_key`` traces every build (bench/builder_study_profile.py).

@@ -9,7 +9,8 @@ loaded instead of traced) and groups (compiled ``vmap`` batches: ``proleg.sweep`
 
     python bench/builder_study.py [--n 64] [--t-end 0.1] [--out bench/results/builder_study.md] [--z0-structure]
 
-``--z0-structure`` declares a DiscreteController's initial state ``z0`` structure for the run:
+``--z0-structure`` (obsolete since 47a7fad made z0 a parameter, ``controller_state0``; kept to reproduce the
+earlier results) declares a DiscreteController's initial state ``z0`` structure for the run:
 the leg's pin servo's ``z0`` (the initial controller state, a topology number) is read by its
 simulation, so the structure check of ``analyses.structure.simulation_key`` refuses the leg and
 the builder study traces every build to group it (``executors._shape_key``,

@@ -7,7 +7,8 @@ sweep's compilation and run (``SweepResult.compile_time`` / ``wall_time``) and t
     python bench/builder_study_profile.py [--n 8] [--t-end 0.02] [--executor vmap] [--only both|builder|system]
         [--cprofile FILE] [--csv FILE] [--z0-structure]
 
-``--z0-structure`` declares a DiscreteController's initial state ``z0`` structure (hashed
+``--z0-structure`` (obsolete since 47a7fad made z0 a parameter, ``controller_state0``; kept to reproduce the
+earlier results) declares a DiscreteController's initial state ``z0`` structure (hashed
 exactly in the structure key, not perturbed) for this run: the HyQ leg's pin servo's ``z0`` is
 a topology number its simulation reads (the initial controller state), so the structure check
 of ``analyses.structure.simulation_key`` refuses the leg and ``_shape_key`` traces every build
