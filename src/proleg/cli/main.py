@@ -29,7 +29,7 @@ SCENARIOS = {
     "flegx-machinery": ("proleg.papers.flegx_report", "run_machinery", "FLEGX worm-gear jump with landing vs ideal gears (seed 002 Fig. 4)"),
     "flegx-study": ("proleg.papers.flegx_report", "run_study", "FLEGX configurations 1-4 x link cases 1-6, Table I"),
     "torso-modal": ("proleg.papers.torso_report", "run_torso_modal", "HyQ torso FE modes vs a synthetic hammer test (seed 001 Table 2)"),
-    "torque-sensor-study": ("proleg.papers.sensor_study", "run_torque_sensor_study", "HyQ torque sensor: four FE concepts, optuna optimisation, the spoke sensor designed to 1 deg at 140 N m"),
+    "torque-sensor-study": ("proleg.papers.sensor_study", "run_torque_sensor_study", "HyQ torque sensor: five FE concepts, optuna optimisation, the spoke sensor designed to 1 deg at 140 N m"),
 }
 
 
