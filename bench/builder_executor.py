@@ -8,13 +8,10 @@ batch) start alike.
 Prints one table row: executor, designs, succeeded, wall time [s] of ``study.run()`` (the
 workers' start included), designs per second, load average at the end.
 
-    python bench/builder_executor.py --executor vmap [--n 16] [--t-end 0.1] [--z0-structure]
+    python bench/builder_executor.py --executor vmap [--n 16] [--t-end 0.1]
 
-``--z0-structure`` (obsolete since 47a7fad made z0 a parameter, ``controller_state0``; kept to reproduce the
-earlier results) declares a DiscreteController's initial state ``z0`` structure for the run
-(in the workers too: the builder sets it), the model change this bench measures before it
-lands: the leg's pin servo's ``z0`` is a topology number its simulation reads, so without it
-``executors._shape_key`` traces every build (bench/builder_study_profile.py).
+(The ``--z0-structure`` flag of the earlier runs, bench/results/builder_study_64_z0.md, declared
+a DiscreteController's ``z0`` structure before 47a7fad made it a parameter; it is gone.)
 """
 
 from __future__ import annotations
@@ -25,31 +22,20 @@ import tempfile
 import time
 import warnings
 
-Z0_STRUCTURE = False
 
 
 def leg(cylinder_length):
     import proleg as pl
 
-    if Z0_STRUCTURE or os.environ.get("BENCH_Z0_STRUCTURE") == "1":  # also in a spawned worker
-        from proleg.model.control import DiscreteController
-
-        if "z0" not in DiscreteController._structure_fields:
-            DiscreteController._structure_fields = (*DiscreteController._structure_fields, "z0")
     return pl.assemble(pl.robots.hyq_leg("bushings8", cylinder_length=float(cylinder_length), rod_length=0.30))
 
 
 def main():
-    global Z0_STRUCTURE
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--executor", default="vmap")
     ap.add_argument("--n", type=int, default=16)
     ap.add_argument("--t-end", type=float, default=0.1)
-    ap.add_argument("--z0-structure", action="store_true")
     args = ap.parse_args()
-    Z0_STRUCTURE = args.z0_structure
-    if args.z0_structure:
-        os.environ["BENCH_Z0_STRUCTURE"] = "1"
     os.environ["PROLEG_CACHE_DIR"] = tempfile.mkdtemp(prefix="proleg-builder-executor-")
     warnings.simplefilter("ignore")
     import proleg as pl
@@ -64,8 +50,7 @@ def main():
                       progress=False)
     wall = time.perf_counter() - t0
     ok = int((table["status"] == "success").sum())
-    z0 = " (z0 structure)" if args.z0_structure else ""
-    print(f"| {args.executor}{z0} | {len(table)} | {ok} | {wall:.1f} | {len(table) / wall:.3f} | {os.getloadavg()[0]:.1f} |", flush=True)
+    print(f"| {args.executor} | {len(table)} | {ok} | {wall:.1f} | {len(table) / wall:.3f} | {os.getloadavg()[0]:.1f} |", flush=True)
     pl.study.executors.shutdown_pools()
 
 

@@ -7,14 +7,10 @@ Columns: wall time [s] of ``study.run()``, designs per second, traces (lowered f
 exported by the compile cache), shared loads (a function of another model of the same structure
 loaded instead of traced) and groups (compiled ``vmap`` batches: ``proleg.sweep`` calls) of the run.
 
-    python bench/builder_study.py [--n 64] [--t-end 0.1] [--out bench/results/builder_study.md] [--z0-structure]
+    python bench/builder_study.py [--n 64] [--t-end 0.1] [--out bench/results/builder_study.md]
 
-``--z0-structure`` (obsolete since 47a7fad made z0 a parameter, ``controller_state0``; kept to reproduce the
-earlier results) declares a DiscreteController's initial state ``z0`` structure for the run:
-the leg's pin servo's ``z0`` (the initial controller state, a topology number) is read by its
-simulation, so the structure check of ``analyses.structure.simulation_key`` refuses the leg and
-the builder study traces every build to group it (``executors._shape_key``,
-bench/builder_study_profile.py); the flag measures the model change before it lands.
+(The ``--z0-structure`` flag of the earlier runs, bench/results/builder_study_64_z0.md, declared
+a DiscreteController's ``z0`` structure before 47a7fad made it a parameter; it is gone.)
 """
 
 from __future__ import annotations
@@ -37,7 +33,6 @@ def main():
     ap.add_argument("--n", type=int, default=64)
     ap.add_argument("--t-end", type=float, default=0.1)
     ap.add_argument("--out", default=os.path.join(os.path.dirname(__file__), "results", "builder_study.md"))
-    ap.add_argument("--z0-structure", action="store_true", help="DiscreteController.z0 declared structure for this run")
     args = ap.parse_args()
     os.environ["PROLEG_CACHE_DIR"] = tempfile.mkdtemp(prefix="proleg-builder-study-")
     warnings.simplefilter("ignore")
@@ -46,11 +41,6 @@ def main():
 
     from proleg.papers.hyq_study import peak_hip_force, peak_knee_force, pin_stiffness_apply
     from proleg.study import LogRange
-
-    if args.z0_structure:
-        from proleg.model.control import DiscreteController
-
-        DiscreteController._structure_fields = (*DiscreteController._structure_fields, "z0")
 
     import proleg.analyses.sweep as sweep_module
 
@@ -86,7 +76,7 @@ def main():
     text = "\n".join([
         "# Builder study against a parameter study (bench/builder_study.py)", "",
         f"HyQ leg with 8 bushings, {args.t_end} s drop, executor vmap, one process, fresh compile cache"
-        f"{' (DiscreteController.z0 declared structure: --z0-structure)' if args.z0_structure else ''}; "
+        "; "
         f"load average {load:.1f} at the end on {os.cpu_count()} CPUs. Rate ratio (builder / System): "
         f"{rows[1]['rate'] / rows[0]['rate']:.2f}.", "", *lines, "",
     ])

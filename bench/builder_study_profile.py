@@ -5,14 +5,10 @@ the builds (``hyq_leg`` + ``assemble``), the grouping keys (``executors._shape_k
 sweep's compilation and run (``SweepResult.compile_time`` / ``wall_time``) and the outputs.
 
     python bench/builder_study_profile.py [--n 8] [--t-end 0.02] [--executor vmap] [--only both|builder|system]
-        [--cprofile FILE] [--csv FILE] [--z0-structure]
+        [--cprofile FILE] [--csv FILE]
 
-``--z0-structure`` (obsolete since 47a7fad made z0 a parameter, ``controller_state0``; kept to reproduce the
-earlier results) declares a DiscreteController's initial state ``z0`` structure (hashed
-exactly in the structure key, not perturbed) for this run: the HyQ leg's pin servo's ``z0`` is
-a topology number its simulation reads (the initial controller state), so the structure check
-of ``analyses.structure.simulation_key`` refuses the leg and ``_shape_key`` traces every build
-(the measured cost this flag removes).
+(The ``--z0-structure`` flag of the earlier runs, bench/results/builder_study_64_z0.md, declared
+a DiscreteController's ``z0`` structure before 47a7fad made it a parameter; it is gone.)
 """
 
 from __future__ import annotations
@@ -39,7 +35,6 @@ def main():
     ap.add_argument("--only", choices=("both", "builder", "system"), default="both")
     ap.add_argument("--cprofile", default=None, help="write a cProfile of the builder study here")
     ap.add_argument("--csv", default=None, help="write the builder study's rows here")
-    ap.add_argument("--z0-structure", action="store_true", help="DiscreteController.z0 declared structure for this run")
     args = ap.parse_args()
     os.environ["PROLEG_CACHE_DIR"] = tempfile.mkdtemp(prefix="proleg-builder-profile-")
     warnings.simplefilter("ignore")
@@ -50,11 +45,6 @@ def main():
 
     from proleg.papers.hyq_study import peak_hip_force, peak_knee_force, pin_stiffness_apply
     from proleg.study import LogRange
-
-    if args.z0_structure:
-        from proleg.model.control import DiscreteController
-
-        DiscreteController._structure_fields = (*DiscreteController._structure_fields, "z0")
 
     spent, calls = defaultdict(float), defaultdict(int)
 

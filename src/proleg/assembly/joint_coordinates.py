@@ -53,7 +53,7 @@ import numpy as np
 from ..errors import ModelError
 from ..spatial.rotation import A_of_p, G_of_p, mm, mv, p_of_A
 from .constraints import ROW_KINDS, build_constraint_topology, constraint_values
-from .kinematics import BodyKin, MarkerKin
+from .kinematics import BodyKin, marker_kin
 from .sparsity import Coloring
 from .constraints import _joint_rows
 from .system import System, body_loads, element_power
@@ -417,14 +417,8 @@ class JointCoordinates:
         return BodyKin(r, p0, A, rd, w)
 
     def _markers(self, bk):
-        """Marker kinematics (kinematics.marker_kin) with one gather of the parts' [A, ω, ṙ, r]
-        rows instead of one per quantity."""
         P = self.system.params
-        nm = P["marker_s"].shape[0]
-        rows = self.system.topo.marker_oh @ jnp.concatenate([bk.A.reshape(-1, 9), bk.w, bk.rd, bk.r], 1)
-        Ab, w = rows[:, :9].reshape(nm, 3, 3), rows[:, 9:12]
-        s = mv(Ab, P["marker_s"])
-        return MarkerKin(rows[:, 15:] + s, mm(Ab, P["marker_C"]), rows[:, 12:15] + jnp.cross(w, s), w, Ab, s)
+        return marker_kin(self.system.topo.marker_oh, P["marker_s"], P["marker_C"], bk)
 
     def kinematics(self, x, xd):
         """(body, marker) kinematics at (x, ẋ) straight from the tree (what element laws and

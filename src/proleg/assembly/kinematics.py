@@ -61,12 +61,14 @@ def marker_kin(body_of, marker_s, marker_C, bk: BodyKin, flex=None) -> MarkerKin
     ``flex = (eta, etad, phi, psi)`` adds the deformation of markers on flexible bodies:
     s' = s'_0 + Φ η, C = (I + (Ψ η)~) C_0, with the deformation velocities in v and ω.
     """
-    Ab = body_of @ bk.A
-    w = body_of @ bk.w
+    # one gather of the bodies' [A, ω, ṙ, r] rows instead of one per quantity (each a kernel)
+    nm = marker_s.shape[0]
+    rows = body_of @ jnp.concatenate([bk.A.reshape(-1, 9), bk.w, bk.rd, bk.r], 1)
+    Ab, w, rd_m, r_m = rows[:, :9].reshape(nm, 3, 3), rows[:, 9:12], rows[:, 12:15], rows[:, 15:]
     if flex is None:
         s = mv(Ab, marker_s)
         R = mm(Ab, marker_C)
-        v = body_of @ bk.rd + jnp.cross(w, s)
+        v = rd_m + jnp.cross(w, s)
     else:
         eta, etad, phi, psi = flex
         from ..spatial.rotation import skew
@@ -74,12 +76,11 @@ def marker_kin(body_of, marker_s, marker_C, bk: BodyKin, flex=None) -> MarkerKin
         s_loc = marker_s + jnp.einsum("mij,j->mi", phi, eta)
         s = jnp.einsum("mij,mj->mi", Ab, s_loc)
         R = Ab @ ((jnp.eye(3) + skew(jnp.einsum("mij,j->mi", psi, eta))) @ marker_C)
-        v = body_of @ bk.rd + jnp.cross(w, s)
+        v = rd_m + jnp.cross(w, s)
         if etad is not None:
             v = v + jnp.einsum("mij,mj->mi", Ab, jnp.einsum("mij,j->mi", phi, etad))
             w = w + jnp.einsum("mij,mj->mi", Ab, jnp.einsum("mij,j->mi", psi, etad))
-    r = body_of @ bk.r + s
-    return MarkerKin(r, R, v, w, Ab, s)
+    return MarkerKin(r_m + s, R, v, w, Ab, s)
 
 
 def body_L(p):

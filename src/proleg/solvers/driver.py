@@ -64,8 +64,12 @@ def _tick_joint(dyn, st: StepState, new: StepState, h, hht: bool):
     tp = dyn.tree_pass(new.q, new.v)
     new = with_power(st, new, h, element_power(dyn.system, tp.bk, tp.mk, new.t, new.z))
     z = sample_controllers(dyn.system, new.t, None, None, new.z, kin=(tp.bk, tp.mk))
-    t_right = new.t + 1e-12 * jnp.maximum(1.0, jnp.abs(new.t))
-    return new, _restart(dyn, new, z, hht, dyn.dynamics(new.q, new.v, t_right, z, tp=tp))
+    return new, _restart(dyn, new, z, hht, dyn.dynamics(new.q, new.v, _right_limit(new.t), z, tp=tp))
+
+
+def _right_limit(t):
+    """The time just after t at which a restart evaluates laws that jump at t (:func:`_restart`)."""
+    return t + 1e-12 * jnp.maximum(1.0, jnp.abs(t))
 
 
 def _restart(dyn, st: StepState, z, hht: bool, mqp=None):
@@ -79,7 +83,7 @@ def _restart(dyn, st: StepState, z, hht: bool, mqp=None):
     right limit too, consistent with q̈ and λ (it was a second force evaluation and a constraint
     vjp at t: ~1,000 of the HyQ drop loop's 7,841 traced operations); generalized-α does not
     use g and keeps it as it is."""
-    t_right = st.t + 1e-12 * jnp.maximum(1.0, jnp.abs(st.t))
+    t_right = _right_limit(st.t)
     Pq = jax.jacfwd(lambda qq: dyn.constraints(qq, t_right))(st.q)
     if mqp is not None:  # (M, Q, powers) at (q, v, t_right, z), given by the caller
         M, Q, pw = mqp
@@ -234,6 +238,10 @@ def advance(dyn, integrator, dopts: DriverOptions, st: StepState, h, out_times, 
             te = jnp.minimum(te, jnp.min(jnp.where(after, bps, jnp.inf)))
         return te
 
+    def on_tick(t):
+        """t is a controller clock tick (to round-off of the landing on it)."""
+        return jnp.abs(t / Ts - jnp.round(t / Ts)) < 1e-9 * jnp.maximum(1.0, t / Ts)
+
     def attempt(c):
         st, h, (ns, nr, nn, nj), status, ft, worst, rejected, seg = c
         rem = next_event(st.t) - st.t
@@ -266,8 +274,7 @@ def advance(dyn, integrator, dopts: DriverOptions, st: StepState, h, out_times, 
                 n = with_power(st, n, h_take, dyn.power_terms(n.q, n.v, n.t, n.z))
                 return n, n
 
-            at_tick = accept & (jnp.abs(new.t / Ts - jnp.round(new.t / Ts)) < 1e-9 * jnp.maximum(1.0, new.t / Ts))
-            new, after = jax.lax.cond(at_tick, lambda n: _tick_joint(dyn, st, n, h_take, integrator.hht), plain, new)
+            new, after = jax.lax.cond(accept & on_tick(new.t), lambda n: _tick_joint(dyn, st, n, h_take, integrator.hht), plain, new)
         # Accepted: the new state; rejected: the old one, but with the newest Newton matrix.
         jac_fields = ("Jfac", "jac_h", "jac_ok", "jac_hold", "jac_pen")
         st2 = StepState(*[
@@ -275,8 +282,7 @@ def advance(dyn, integrator, dopts: DriverOptions, st: StepState, h, out_times, 
         ])
         # Controller sample at its clock ticks.
         if Ts is not None and not merged:
-            at_tick = accept & (jnp.abs(st2.t / Ts - jnp.round(st2.t / Ts)) < 1e-9 * jnp.maximum(1.0, st2.t / Ts))
-            st2 = jax.lax.cond(at_tick, lambda s: _sample_update(dyn, s, integrator.hht), lambda s: s, st2)
+            st2 = jax.lax.cond(accept & on_tick(st2.t), lambda s: _sample_update(dyn, s, integrator.hht), lambda s: s, st2)
         if bps is not None:
             at_bp = accept & jnp.any(jnp.abs(st2.t - bps) <= 1e-9 * jnp.maximum(1.0, jnp.abs(bps)))
             st2 = jax.lax.cond(at_bp, lambda s: _restart(dyn, s, s.z, integrator.hht), lambda s: s, st2)

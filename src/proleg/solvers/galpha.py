@@ -519,14 +519,14 @@ def step(dyn, integrator, st: StepState, h, opts: StepOptions, power: bool = Tru
             ev_vec = ev_vec - lu_apply(Jfac, jnp.concatenate([jnp.zeros(nq, q1.dtype), dphi]))[:nq]
         wv = dyn.weights(st.q, 0.0, opts.atol, opts.atol_p) / opts.velocity_time_scale + opts.rtol * jnp.abs(st.v)
         err = jnp.maximum(err, _wrms(ev_vec, wv))
-    pw1 = dyn.power_terms(q1, v1, t1, z) if power else st.pw
-    wnew = st.w + 0.5 * h * (st.pw + pw1) if power else st.w
     if integrator.hht:
         _, vjp1 = jax.vjp(lambda qq: dyn.constraints(qq, t1), q1)
         g1 = vjp1(lam1)[0] - dyn.generalized_forces(q1, v1, t1, z)
     else:
         g1 = st.g
-    new = StepState(t1, q1, v1, a1, qdd1, lam1, h, wnew, pw1, z, g1, Jfac, jac_h, jac_ok, jac_hold, jac_pen, jerk, h)
+    new = StepState(t1, q1, v1, a1, qdd1, lam1, h, st.w, st.pw, z, g1, Jfac, jac_h, jac_ok, jac_hold, jac_pen, jerk, h)
+    if power:
+        new = with_power(st, new, h, dyn.power_terms(q1, v1, t1, z))
     worst = jnp.argmax(jnp.abs(jnp.where(jnp.isfinite(r), r, jnp.inf)))
     worst = jnp.where(conv, jnp.argmax(jnp.abs(e_vec / w)), worst)
     return new, err, iters, conv, worst, stale_fail, fresh
