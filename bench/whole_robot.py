@@ -21,8 +21,14 @@ proleg modes:
   with a fresh Newton matrix every step (``GeneralizedAlpha()``, ``coordinates="absolute"``).
 
 ``first [s]`` is the first ``simulate`` of 0.2 s in a fresh process (compile included; proleg's
-persistent compile cache off unless ``--warm-cache``), ``warm [s]`` the next run of
-``--t-end`` (1 s) in the same process, ``us/step`` = warm / accepted steps. Accuracy:
+persistent compile cache off unless ``--warm-cache``). Then one untimed run of ``--t-end``
+(1 s): a run with a new number of outputs prepares its output processing once (a few small
+compiles, ~0.3 s), which is not the step loop's speed. ``warm [s]`` is the median of the next
+``--repeat`` (5) runs of ``--t-end`` in the same process, each paired with a MuJoCo run of the
+same length (the load of a shared machine drifts; pairs keep the ratio fair), ``warm min [s]``
+their fastest, ``us/step`` = warm / accepted steps, ``× MuJoCo`` the ratio of the medians.
+Warm runs of one compiled loop on a 2-core VM vary by up to 2× between runs even when it is
+quiet: the median of several is the figure, the minimum what the machine can do. Accuracy:
 ``Fz/W`` the total vertical ground force over the weight at the end (1.000 when the stand has
 settled), ``z [m]`` the base height at the end, ``|Δq|`` the largest joint-position difference
 [rad] at the end from the ``before`` run (same problem, same tolerances: the two choices'
@@ -35,7 +41,7 @@ Go1's singular dummy base inertia its diagonal), a free joint on the root, the s
 only), a PD servo per joint as a ``general`` actuator (gain kp, bias −kp q − kd q̇, the setpoint
 as control), joint limits and frictionloss off, URDF damping kept, 1 ms steps (Euler, its
 default), contact at MuJoCo's defaults with μ = 0.8. ``warm`` times ``mj_step`` for 1 s after one
-untimed 1 s run.
+untimed 1 s run (the median of the paired runs).
 
     python bench/whole_robot.py                                  # all robots, both modes, MuJoCo
     python bench/whole_robot.py --robots go1 anymal_c --modes defaults --no-mujoco
@@ -56,7 +62,7 @@ from pathlib import Path
 import numpy as np
 from common import add_output_args, emit, log
 
-COLUMNS = ["robot", "engine", "mode", "coordinates", "integrator", "first [s]", "warm [s]", "steps", "rejected", "jacobians",
+COLUMNS = ["robot", "engine", "mode", "coordinates", "integrator", "first [s]", "warm [s]", "warm min [s]", "steps", "rejected", "jacobians",
            "us/step", "× MuJoCo", "Fz/W", "z [m]", "|Δq| [rad]", "status"]
 
 #: robot: (URDF, SRDF, feet for load_urdf (None: the URDF's spheres))
@@ -124,7 +130,7 @@ def _leg_length(model) -> float:
     return float(max(min(np.linalg.norm(f - h) for h in hips) for f in feet))
 
 
-def run_proleg(name, mode, t_end, with_mujoco=False, repeat=2):
+def run_proleg(name, mode, t_end, with_mujoco=False, repeat=5):
     """One robot, one mode, in this (fresh) process: the row's figures and the end state."""
     import jax
 
@@ -139,6 +145,7 @@ def run_proleg(name, mode, t_end, with_mujoco=False, repeat=2):
     t = time.perf_counter()
     pl.simulate(system, 0.2, 1e-2, progress=False, **kw)
     first = time.perf_counter() - t
+    pl.simulate(system, t_end, 1e-2, progress=False, **kw)  # untimed: output processing for this length (module docstring)
     mjs = None
     if with_mujoco:
         try:
@@ -147,24 +154,25 @@ def run_proleg(name, mode, t_end, with_mujoco=False, repeat=2):
         except ImportError:
             mjs = None
     walls, mj_walls = [], []
-    for _ in range(repeat):  # proleg and MuJoCo in turn: the ratio of the fastest of each
+    for _ in range(repeat):  # proleg and MuJoCo in turn: the ratio of the medians
         t = time.perf_counter()
         r = pl.simulate(system, t_end, 1e-2, progress=False, **kw)
         walls.append(time.perf_counter() - t)
         if mjs is not None:
             mj_walls.append(mjs.run(t_end))
-    warm = min(walls)
+    warm = float(np.median(walls))
     st = r.stats
     fz = sum(float(np.asarray(r.contact(c.name)["force"])[-1][2]) for c in model.contacts)
     qj = [float(r.joint(j).angle[-1]) for j in model.urdf.joint_names()]
     rows = []
     if mjs is not None:
-        mj_row = mjs.row(t_end, min(mj_walls), qj)
+        mj_row = mjs.row(t_end, float(np.median(mj_walls)), qj)
+        mj_row["warm min [s]"] = min(mj_walls)
         rows.append(mj_row)
     return rows + [{
         "robot": name, "engine": "proleg", "mode": mode, "coordinates": r.coordinates,
         "× MuJoCo": warm / mj_row["warm [s]"] if mjs is not None else None,
-        "integrator": st["integrator"], "why": st["integrator_reason"], "first [s]": first, "warm [s]": warm,
+        "integrator": st["integrator"], "why": st["integrator_reason"], "first [s]": first, "warm [s]": warm, "warm min [s]": min(walls),
         "steps": int(st["steps"]), "rejected": int(st["rejected"]), "jacobians": int(st["jacobians"]),
         "us/step": 1e6 * warm / max(int(st["steps"]), 1), "Fz/W": fz / (mass * G), "z [m]": float(r.part(model.parts[0].name).position[-1][2]),
         "qj": qj, "kp": kp, "kd": kd, "mass": mass, "status": str(r.status.name if hasattr(r.status, "name") else r.status),
@@ -268,8 +276,8 @@ class MujocoStand:
 
 
 def _worker(argv):
-    name, mode, t_end, with_mj = argv[0], argv[1], float(argv[2]), argv[3] == "1"
-    for row in run_proleg(name, mode, t_end, with_mujoco=with_mj):
+    name, mode, t_end, with_mj, repeat = argv[0], argv[1], float(argv[2]), argv[3] == "1", int(argv[4])
+    for row in run_proleg(name, mode, t_end, with_mujoco=with_mj, repeat=repeat):
         print("ROW " + json.dumps(row))
 
 
@@ -280,12 +288,14 @@ def main(argv=None):
     ap.add_argument("--no-mujoco", dest="mujoco", action="store_false", help="time proleg alone")
     ap.add_argument("--t-end", type=float, default=1.0)
     add_output_args(ap, "whole_robot")
+    ap.set_defaults(repeat=5)  # timed runs per robot (the before mode: one)
     args = ap.parse_args(argv)
     rows = []
     for name in args.robots:
         got = {}
         for k, mode in enumerate(args.modes):
-            cmd = [sys.executable, __file__, "--worker", name, mode, str(args.t_end), "1" if (k == 0 and args.mujoco) else "0"]
+            cmd = [sys.executable, __file__, "--worker", name, mode, str(args.t_end), "1" if (k == 0 and args.mujoco) else "0",
+                   str(1 if mode == "before" else args.repeat)]
             env = dict(os.environ)  # PROLEG_CACHE_DIR="" unless --warm-cache (bench/common.py): cold compiles
             log(f"{name} {mode} ...")
             t0 = time.perf_counter()
@@ -302,8 +312,11 @@ def main(argv=None):
     import platform
 
     notes = [
-        f"{args.t_end:g} s of standing; first = the first 0.2 s run in a fresh process (compile included); warm = the next {args.t_end:g} s run",
-        "× MuJoCo = warm / MuJoCo's warm, both the fastest of two runs timed in turn in the first mode's process (the load varies)",
+        f"{args.t_end:g} s of standing; first = the first 0.2 s run in a fresh process (compile included); warm = the median of "
+        f"{args.repeat} runs of {args.t_end:g} s after an untimed one (before: one run), warm min = their fastest",
+        "× MuJoCo = warm / MuJoCo's warm, the medians of runs timed in turn in the first mode's process (the load drifts)",
+        f"environment: XLA_FLAGS={os.environ.get('XLA_FLAGS', '')!r}, PJRT_NPROC={os.environ.get('PJRT_NPROC', '')!r} "
+        "(proleg adds its XLA-CPU defaults at import unless set here: proleg/__init__.py)",
         "|Δq|: defaults against before (the two choices' answers at the same tolerances); MuJoCo against proleg's defaults (different contact models)",
         "why (proleg defaults): " + "; ".join(f"{r['robot']}: {r.get('why', '')}" for r in rows if r.get("mode") == "defaults"),
         f"load average at the start {os.getloadavg()[0]:.1f} ({platform.node()})",

@@ -512,6 +512,29 @@ def test_global_settings_page_names_every_switch():
         assert opt in page, opt
     for flag in pl.XLA_CPU_DEFAULTS:
         assert flag in page, flag
+    for name in pl.XLA_CPU_ENV_DEFAULTS:
+        assert name in page, name
+
+
+def test_xla_cpu_environment_defaults_and_their_opt_outs():
+    """`import proleg` sets PJRT_NPROC=1 and its XLA flags in a clean environment, and leaves
+    them alone where the user set PJRT_NPROC, NPROC or PROLEG_XLA_DEFAULTS=0 (docs/global-settings.md)."""
+    import os
+    import subprocess
+    import sys
+
+    code = "import os, proleg; print(os.environ.get('PJRT_NPROC'), os.environ.get('NPROC'), 'concurrency_optimized_scheduler=false' in os.environ.get('XLA_FLAGS', ''))"
+    clean = {k: v for k, v in os.environ.items() if k not in ("PJRT_NPROC", "NPROC", "XLA_FLAGS", "PROLEG_XLA_DEFAULTS")}
+
+    def run(**env):
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, env={**clean, **env})
+        assert out.returncode == 0, out.stderr[-3000:]
+        return out.stdout.split()
+
+    assert run() == ["1", "None", "True"]
+    assert run(PJRT_NPROC="4") == ["4", "None", "True"]
+    assert run(NPROC="3") == ["None", "3", "True"]
+    assert run(PROLEG_XLA_DEFAULTS="0") == ["None", "None", "False"]
 
 
 def test_jax_cache_opt_out_leaves_jax_config_alone(tmp_path):

@@ -57,16 +57,33 @@ XLA_CPU_DEFAULTS = {
     # colours they were half of a step, and a third of a vmap batch's lane-step; without them no
     # model measured got slower (docs/performance.md).
     "xla_cpu_experimental_ynn_fusion_type": "",
+    # Not set: --xla_cpu_copy_insertion_use_region_analysis=true copies fewer of a while loop's
+    # carried values (Go1's step 645 → 622 kernels) but computes wrong answers: the four-bar's
+    # Radau5 run ended 2.5e-3 rad from its closed form (tests/test_core_fourbar.py; jaxlib 0.10.2).
+}
+
+# Environment variables proleg sets for XLA-CPU (see _xla_cpu_defaults), as name: value.
+XLA_CPU_ENV_DEFAULTS = {
+    # The size of XLA-CPU's intra-op thread pool (XLA reads PJRT_NPROC, then NPROC, then counts
+    # the cores). Its executor hands a step's independent microsecond-sized kernels to the pool's
+    # threads, and on a 2-core VM each hand-off cost more than the kernel: with one pool thread a
+    # standing Go1 ran 1 s in 0.13 s where two threads took 0.15–0.19 s and four 0.15–0.30 s
+    # (the same steps; docs/performance.md). Concurrent executions still run in parallel (each on
+    # its caller's thread: sweep's concurrent batches), and a vmap batch of 256 and a sweep ran
+    # at the same speed (bench/vmap_batch.py). A single very large batch of your own on a
+    # many-core CPU may want the pool back: set PJRT_NPROC to the number of cores.
+    "PJRT_NPROC": "1",
 }
 
 
 def _xla_cpu_defaults():
-    """Set XLA_CPU_DEFAULTS in XLA_FLAGS before JAX starts its backend.
+    """Set XLA_CPU_DEFAULTS in XLA_FLAGS and XLA_CPU_ENV_DEFAULTS in the environment before JAX
+    starts its backend.
 
     Each option is left alone when XLA_FLAGS already names it (set it yourself to keep XLA's
-    default), when this jaxlib does not have it, and all of them when PROLEG_XLA_DEFAULTS=0.
-    The flags are read when JAX's backend starts: importing proleg after running JAX code has
-    no effect.
+    default), when this jaxlib does not have it, and all of them when PROLEG_XLA_DEFAULTS=0;
+    PJRT_NPROC also when NPROC is set (the older name XLA reads for the same number). They are
+    read when JAX's backend starts: importing proleg after running JAX code has no effect.
     """
     import os
 
@@ -76,6 +93,9 @@ def _xla_cpu_defaults():
         flags = os.environ.get("XLA_FLAGS", "")
         if name not in flags and _jaxlib_has_option(name):
             os.environ["XLA_FLAGS"] = f"{flags} --{name}={value}".strip()
+    for name, value in XLA_CPU_ENV_DEFAULTS.items():
+        if name not in os.environ and not (name == "PJRT_NPROC" and "NPROC" in os.environ) and _jaxlib_has_option(name):
+            os.environ[name] = value
 
 
 _xla_cpu_defaults()
