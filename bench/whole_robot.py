@@ -21,9 +21,12 @@ proleg modes:
   with a fresh Newton matrix every step (``GeneralizedAlpha()``, ``coordinates="absolute"``).
 
 ``first [s]`` is the first ``simulate`` of 0.2 s in a fresh process (compile included; proleg's
-persistent compile cache off unless ``--warm-cache``). Then one untimed run of ``--t-end``
-(1 s): a run with a new number of outputs prepares its output processing once (a few small
-compiles, ~0.3 s), which is not the step loop's speed. ``warm [s]`` is the median of the next
+persistent compile cache off unless ``--warm-cache``). Then three untimed runs of ``--t-end``
+(1 s; one for the ``before`` mode), the first with one of its outputs read: a run with a new
+number of outputs compiles its output processing once, and after a cold compile XLA's compiler
+threads stay busy for a second or two (gdb: an ``llvm-worker`` verifying MLIR while the loop
+ran), so the first runs share the two cores with them (Go1: 0.2–0.7 s where the later runs take
+0.13 s). That is a fresh process's start, not the step loop's speed. ``warm [s]`` is the median of the next
 ``--repeat`` (5) runs of ``--t-end`` in the same process, each paired with a MuJoCo run of the
 same length (the load of a shared machine drifts; pairs keep the ratio fair), ``warm min [s]``
 their fastest, ``us/step`` = warm / accepted steps, ``× MuJoCo`` the ratio of the medians.
@@ -145,7 +148,12 @@ def run_proleg(name, mode, t_end, with_mujoco=False, repeat=5):
     t = time.perf_counter()
     pl.simulate(system, 0.2, 1e-2, progress=False, **kw)
     first = time.perf_counter() - t
-    pl.simulate(system, t_end, 1e-2, progress=False, **kw)  # untimed: output processing for this length (module docstring)
+    # untimed: three runs of the timed length, the first with one of its outputs read (which waits
+    # for the output processing of this length, compiled in the background; module docstring)
+    pl.simulate(system, t_end, 1e-2, progress=False, **kw).part(model.parts[0].name).position
+    if mode != "before":
+        for _ in range(2):
+            pl.simulate(system, t_end, 1e-2, progress=False, **kw)
     mjs = None
     if with_mujoco:
         try:
@@ -313,7 +321,7 @@ def main(argv=None):
 
     notes = [
         f"{args.t_end:g} s of standing; first = the first 0.2 s run in a fresh process (compile included); warm = the median of "
-        f"{args.repeat} runs of {args.t_end:g} s after an untimed one (before: one run), warm min = their fastest",
+        f"{args.repeat} runs of {args.t_end:g} s after three untimed ones (before: one of each), warm min = their fastest",
         "× MuJoCo = warm / MuJoCo's warm, the medians of runs timed in turn in the first mode's process (the load drifts)",
         f"environment: XLA_FLAGS={os.environ.get('XLA_FLAGS', '')!r}, PJRT_NPROC={os.environ.get('PJRT_NPROC', '')!r} "
         "(proleg adds its XLA-CPU defaults at import unless set here: proleg/__init__.py)",
