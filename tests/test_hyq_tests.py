@@ -191,7 +191,12 @@ def test_bench_measurement_drop_csv(tmp_path):
 @pytest.mark.slow
 def test_pin_servo_equals_pid():
     """The DiscreteController servo of the bushing models applies exactly the PID law: on the
-    rigid model both give the same drop (cross-check of the two implementations)."""
+    rigid model both give the same drop (cross-check of the two implementations).
+
+    Run at rtol 1e-9: the two laws round differently, and an adaptive run whose step-size
+    decisions flip on round-off ends up a tolerance away (at the defaults, rtol 1e-6, the forces
+    differed by 0.2 N of 1,930 N around the impact). At 1e-9 they differ by 4e-5 N and the
+    slider by 3e-13 m; a servo law that differed would not shrink with the tolerance."""
     from proleg.robots import hyq_leg
     from proleg.robots.hyq_leg import _pin_servo
 
@@ -202,7 +207,7 @@ def test_pin_servo_equals_pid():
         ("knee", ("knee.I", "knee.J"), D.knee_signed_lever, 60 * deg),
     ):
         m_dc.add_controller(_pin_servo(m_dc, f"{side}_servo", m_dc.marker(mi), m_dc.marker(mj), 300.0, 6.0, sp, 1e-3, f"{side}_actuator", lever))
-    a = T.drop_test(system=pl.assemble(m_pid), t_end=0.2).tables["channels"]
-    b = T.drop_test(system=pl.assemble(m_dc), t_end=0.2).tables["channels"]
+    a = T.drop_test(system=pl.assemble(m_pid), t_end=0.2, rtol=1e-9, atol=1e-10).tables["channels"]
+    b = T.drop_test(system=pl.assemble(m_dc), t_end=0.2, rtol=1e-9, atol=1e-10).tables["channels"]
     for c in ("hip force [N]", "knee force [N]", "slider z [m]"):
         np.testing.assert_allclose(a[c], b[c], rtol=1e-6, atol=1e-6 * a[c].abs().max())
