@@ -476,6 +476,16 @@ def _jsonable(v):
     return v
 
 
+def child_result(code: str, env: dict, what: str) -> dict:
+    """Run ``python -c code`` in a fresh process with ``env`` and return the JSON object it
+    printed on a line starting ``RESULT ``; its stderr's tail in the error if there is none."""
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=False)
+    for line in out.stdout.splitlines():
+        if line.startswith("RESULT "):
+            return json.loads(line[7:])
+    raise RuntimeError(f"child failed ({what}):\n{out.stderr[-2000:]}")
+
+
 def add_output_args(parser: argparse.ArgumentParser, name: str):
     parser.add_argument(
         "--warm-cache", action="store_true",

@@ -22,14 +22,12 @@ Cold compiles (proleg's persistent cache off in the children).
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import statistics
-import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(__file__))
-from common import add_output_args, emit, log  # noqa: E402
+from common import add_output_args, child_result, emit, log  # noqa: E402
 
 MODELS = {
     "hal_drop": ("pl.robots.hyq_leg()", 0.3, 1e-3),
@@ -61,12 +59,7 @@ def child(src, expr, t_end, dt, repeat):
     env = dict(os.environ, PROLEG_CACHE_DIR="")
     if src:
         env["PYTHONPATH"] = src
-    code = CHILD.format(expr=expr, t_end=t_end, dt=dt, repeat=repeat)
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=False)
-    for line in out.stdout.splitlines():
-        if line.startswith("RESULT "):
-            return json.loads(line[7:])
-    raise RuntimeError(f"child failed ({src or 'this checkout'}, {expr}):\n{out.stderr[-2000:]}")
+    return child_result(CHILD.format(expr=expr, t_end=t_end, dt=dt, repeat=repeat), env, f"{src or 'this checkout'}, {expr}")
 
 
 def main(argv=None):

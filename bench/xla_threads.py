@@ -16,14 +16,12 @@ change the arithmetic).
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import statistics
-import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(__file__))
-from common import add_output_args, emit, log  # noqa: E402
+from common import add_output_args, child_result, emit, log  # noqa: E402
 
 CHILD = r"""
 import json, sys, time, warnings
@@ -47,11 +45,7 @@ def child(robot, nproc, t_end, repeat):
     env = {k: v for k, v in os.environ.items() if k not in ("PJRT_NPROC", "NPROC")}
     env["PJRT_NPROC"] = str(nproc)
     code = CHILD.format(bench=os.path.dirname(os.path.abspath(__file__)), robot=robot, t_end=t_end, repeat=repeat)
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=False)
-    for line in out.stdout.splitlines():
-        if line.startswith("RESULT "):
-            return json.loads(line[7:])
-    raise RuntimeError(f"child failed ({robot}, PJRT_NPROC={nproc}):\n{out.stderr[-2000:]}")
+    return child_result(code, env, f"{robot}, PJRT_NPROC={nproc}")
 
 
 def main(argv=None):

@@ -370,6 +370,28 @@ def test_a_discrete_controllers_initial_state_is_a_number_of_params():
     np.testing.assert_allclose(qc, qb, rtol=0, atol=1e-12)
 
 
+def test_element_fields_of_mixed_controllers_name_their_own_numbers():
+    """A DiscreteController before a PID: ``servo.kp`` is the PID's gain (``controller_kp``
+    holds the PIDs only) and ``hold.state0`` the discrete controller's slice of
+    ``controller_state0``; neither has the other's fields. ``servo.kp`` used to index
+    ``controller_kp`` by the controller's place among all controllers, out of bounds here, and
+    JAX drops an out-of-bounds update: the new gain was silently ignored."""
+    model = readme_pendulum(1.0)
+    model.add_actuator(pl.JointActuator("motor", "shoulder"))
+    model.add_actuator(pl.JointActuator("elbow_motor", "elbow"))
+    model.add_controller(pl.DiscreteController("hold", lambda t, s, z: _hold(z), z0=[0.5], outputs=["motor"], period=1e-2))
+    model.add_controller(pl.PID("servo", "elbow", kp=20.0, kd=1.0, actuator="elbow_motor", period=1e-2))
+    system = pl.assemble(model)
+    names = system.public_param_names()
+    assert "servo.kp" in names and "hold.state0" in names
+    assert "hold.kp" not in names and "servo.state0" not in names
+    assert np.asarray(system.with_params({"servo.kp": 5.0}).params["controller_kp"]).tolist() == [5.0]
+    assert float(system.with_params({"servo.kp": 5.0}).get("servo.kp")) == 5.0
+    assert np.asarray(system.with_params({"hold.state0": 2.0}).params["controller_state0"]).tolist() == [2.0]
+    with pytest.raises(pl.ModelError, match="hold.kp"):
+        system.with_params({"hold.kp": 1.0})
+
+
 @pytest.mark.slow
 def test_hyq_leg_geometry_gradient_matches_central_differences():
     """∂(knee cylinder's height after a 0.15 s drop)/∂(cylinder length) of the HyQ leg (rigid

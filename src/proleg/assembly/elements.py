@@ -39,6 +39,14 @@ class AbstractGroup:
     def index(self, name: str) -> int:
         return self.names.index(name)
 
+    def element_params(self) -> dict:
+        """{"element.field": (parameter array name, index)}: where one element's own number sits
+        in :meth:`params`, for ``System.with_params``/``get``/``param_names``. By default each
+        array has one row per element, in ``names`` order; a group whose arrays are laid out
+        otherwise (some elements without the field, several numbers per element) overrides it."""
+        per = {k: k[len(self.kind) + 1 :] for k, a in self.params().items() if np.ndim(a) and np.shape(a)[0] == len(self.names)}
+        return {f"{n}.{fld}": (k, i) for i, n in enumerate(self.names) for k, fld in per.items()}
+
     # Defaults: no contribution.
     def potential(self, P, mk, t, ctx):
         return 0.0

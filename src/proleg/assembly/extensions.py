@@ -153,6 +153,22 @@ class ControllerGroup(AbstractGroup):
             "controller_valve_time_constant": np.array([num(t, 1.0) for t in taus]),
         }
 
+    def element_params(self):
+        """The PIDs' numbers index the PIDs only (``controller_kp[k]``: the k-th PID), and a
+        discrete controller's ``state0`` is its slice of ``controller_state0`` (its own initial
+        state, any length); a discrete controller has no gains, a PID no ``state0``."""
+        keys = [k for k in self.params() if k != "controller_state0"]
+        out, k = {}, 0
+        pid = 0
+        for e in self.elements:
+            if e.kind == "pid":
+                out.update({f"{e.name}.{key[len(self.kind) + 1:]}": (key, pid) for key in keys})
+                pid += 1
+            else:
+                out[f"{e.name}.state0"] = ("controller_state0", slice(k, k + e.z0.size))
+                k += e.z0.size
+        return out
+
     def z0(self, P):
         """The controllers' initial z: a PID's [u, ∫e, command] zero, a discrete controller's
         own initial state from ``P["controller_state0"]`` (so that a trace reads no model

@@ -113,9 +113,14 @@ class System:
         """Names accepted by :meth:`with_params`: array names and ``element.field`` names."""
         out = sorted(self.params) + sorted(k[len("variable_"):] for k in self.params if k.startswith("variable_"))
         out += [f"{n}.mass" for n in self.topo.body_names] + [f"{n}.inertia" for n in self.topo.body_names]
+        return out + list(self._element_params())
+
+    def _element_params(self) -> dict:
+        """{"element.field": (array name, index or slice)} over every element group, in model
+        order (AbstractGroup.element_params: a group knows where each element's numbers sit)."""
+        out = {}
         for g in self.topo.groups + self.topo.extensions:
-            for n in g.names:
-                out += [f"{n}.{k[len(g.kind) + 1:]}" for k in g.params()]
+            out.update(g.element_params())
         return out
 
     def public_param_names(self) -> list[str]:
@@ -126,10 +131,7 @@ class System:
         out = sorted(k[len("variable_"):] for k in self.params if k.startswith("variable_"))
         for n in self.topo.body_names:
             out += [f"{n}.mass", f"{n}.inertia"]
-        for g in self.topo.groups + self.topo.extensions:
-            for n in g.names:
-                out += [f"{n}.{k[len(g.kind) + 1:]}" for k in g.params()]
-        return out
+        return out + list(self._element_params())
 
     def _unknown(self, key: str) -> ModelError:
         """The error for a parameter name that is not one: a "did you mean" over the public
@@ -155,9 +157,9 @@ class System:
         elem, fld = key.rsplit(".", 1)
         if elem in self.topo.body_names and fld in ("mass", "inertia"):
             return f"body_{fld}", self.topo.body_names.index(elem)
-        for g in self.topo.groups + self.topo.extensions:
-            if elem in g.names and f"{g.kind}_{fld}" in self.params:
-                return f"{g.kind}_{fld}", g.names.index(elem)
+        where = self._element_params().get(key)
+        if where is not None and where[0] in self.params:
+            return where
         raise self._unknown(key)
 
     def with_params(self, updates: dict | None = None, **kw) -> System:
@@ -173,7 +175,7 @@ class System:
                 val = jnp.asarray(val, dtype=jnp.float64)
             except (TypeError, ValueError):
                 raise ModelError(f"Parameter '{key}' must be numeric, got {val!r}.") from None
-            expected = new[name].shape if idx is None else new[name].shape[1:]
+            expected = new[name].shape if idx is None else np.empty(np.shape(new[name]), bool)[idx].shape
             if val.shape != expected and [d for d in val.shape if d != 1] == [d for d in expected if d != 1]:
                 val = val.reshape(expected)  # only unit axes differ, e.g. (1,) for a scalar
             if val.shape != expected:
