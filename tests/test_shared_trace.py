@@ -370,6 +370,35 @@ def test_a_discrete_controllers_initial_state_is_a_number_of_params():
     np.testing.assert_allclose(qc, qb, rtol=0, atol=1e-12)
 
 
+def _limited_geared(limit, ratio):
+    from proleg.drives import GearTrain
+
+    model = readme_pendulum(1.0)
+    model.add_actuator(pl.JointActuator("motor", "shoulder", effort=lambda t: 3.0 * jnp.sin(20.0 * t), limit=limit,
+                                        gear=GearTrain(ratio, 0.9, 0.7), gear_speed_eps=1e-2))
+    return model
+
+
+def test_a_joint_actuators_limit_and_gear_are_numbers_of_params():
+    """A JointActuator's effort limit and gear train (ratio, efficiencies, the blend speed) are
+    parameters: designs that differ in them share one simulation, and a new limit or ratio
+    through with_params gives the run of the model built with it (they were read at trace time:
+    every new limit or gear ratio compiled again)."""
+    from proleg.analyses.structure import simulation_key
+
+    def run(s):
+        return pl.simulate(s, t_end=0.1, dt_output=0.01, progress=False, throw=False).q
+
+    a, b = pl.assemble(_limited_geared(2.0, 10.0)), pl.assemble(_limited_geared(1.5, 12.0))
+    assert numbers_read(a) == {}
+    ka = simulation_key(a, run)
+    assert ka is not None and simulation_key(b, run) == ka
+    qa, qb = np.asarray(run(a)), np.asarray(run(b))
+    assert np.max(np.abs(qa - qb)) > 1e-6  # the limit and the ratio act
+    qc = np.asarray(run(a.with_params({"motor.limit": 1.5, "motor.gear_ratio": 12.0})))
+    np.testing.assert_allclose(qc, qb, rtol=0, atol=1e-12)
+
+
 def test_element_fields_of_mixed_controllers_name_their_own_numbers():
     """A DiscreteController before a PID: ``servo.kp`` is the PID's gain (``controller_kp``
     holds the PIDs only) and ``hold.state0`` the discrete controller's slice of

@@ -314,9 +314,22 @@ class JointActuatorGroup(TwoMarkerGroup, _CommandMixin):
         self.clique = bool(self.battery_members)
 
     def params(self):
-        out = {"joint_actuator_effort": np.array([e.effort_value for e in self.elements], float)}
+        """The constant efforts, the drives' numbers (:meth:`_drive_params`), and where some
+        actuator has them, the effort limits (``joint_actuator_limit``) and the gear trains'
+        ratio, efficiencies and blend speed (``joint_actuator_gear_*``): a design with another
+        limit or gear is a new argument, not a new compile (issue 42). Which actuators have a
+        limit or a gear is structure; the others' entries hold neutral values, never read."""
+        els = self.elements
+        out = {"joint_actuator_effort": np.array([e.effort_value for e in els], float)}
         if self.has_drive:
             out.update(self._drive_params())
+        if any(e.limit is not None for e in els):
+            out["joint_actuator_limit"] = np.array([np.inf if e.limit is None else float(e.limit) for e in els])
+        if any(e.gear is not None for e in els):
+            gears = [(float(g.ratio), float(g.efficiency), float(g.eta_back), float(e.gear_speed_eps)) if (g := e.gear) is not None
+                     else (1.0, 1.0, 1.0, 0.0) for e in els]
+            for i, f in enumerate(("gear_ratio", "gear_efficiency", "gear_back_efficiency", "gear_speed_eps")):
+                out[f"joint_actuator_{f}"] = np.array([g[i] for g in gears])
         return out
 
     def _drive_params(self):
@@ -388,11 +401,13 @@ class JointActuatorGroup(TwoMarkerGroup, _CommandMixin):
             else:
                 elec.append((zero, zero, zero, zero, zero, uk))
             if e.gear is not None:
-                from ..drives.gears import output_torque
+                from ..drives.gears import GearTrain, output_torque
 
-                uk = output_torque(e.gear, uk, xd[k], e.gear_speed_eps)
+                gear = GearTrain(P["joint_actuator_gear_ratio"][k], P["joint_actuator_gear_efficiency"][k],
+                                 P["joint_actuator_gear_back_efficiency"][k])
+                uk = output_torque(gear, uk, xd[k], P["joint_actuator_gear_speed_eps"][k])
             if e.limit is not None:
-                uk = jnp.clip(uk, -e.limit, e.limit)
+                uk = jnp.clip(uk, -P["joint_actuator_limit"][k], P["joint_actuator_limit"][k])
             outs.append(uk)
         u_out = jnp.stack(outs)
         if full:
