@@ -85,7 +85,9 @@ def max_concurrent_batches(backend: str | None = None) -> int:
     With every pool thread running a batch, nobody runs the lanes: each batch waits on a futex
     forever (gdb on the HyQ 8-bushing leg, two batches of 2 on 2 cores: both pool threads in
     ``LuDecompositionKernel`` → ``ParallelBatchMap`` → ``BlockingCounter::Wait``). One free
-    thread is enough for the queued lanes to run."""
+    thread is enough for the queued lanes to run. (That was with XLA's default pool, a thread
+    per core; ``import proleg`` now sets it to one thread, ``PJRT_NPROC=1``, and each batch runs
+    on the thread that started it. The rule is kept as it was measured.)"""
     if (backend or jax.default_backend()) != "cpu":
         return 1
     return max(1, default_workers() - 1)
