@@ -28,6 +28,22 @@ def leg(cylinder_length, rod_length):
     return pl.assemble(pl.robots.hyq_leg("bushings8", cylinder_length=float(cylinder_length), rod_length=float(rod_length)))
 
 
+def studies(t_end, build=leg):
+    """{"system": make, "builder": make}: the two studies compared (module docstring), each made
+    by calling its ``make()``; ``build(cylinder_length, rod_length)`` builds a builder design
+    (bench/builder_study_profile.py passes a timed one)."""
+    import proleg as pl
+    from proleg.papers.hyq_study import peak_hip_force, peak_knee_force, pin_stiffness_apply
+    from proleg.study import LogRange
+
+    outputs = {"peak_hip_force": peak_hip_force, "peak_knee_force": peak_knee_force}
+    sim = dict(t_end=t_end, dt_output=1e-3, dt_max=1e-3, rtol=1e-6, atol=1e-7)  # the bushing study's options
+    return {
+        "system": lambda: pl.study.Study(leg(0.20, 0.30), {"pin_stiffness": LogRange(1e6, 1e10)}, outputs, sim, apply=pin_stiffness_apply),
+        "builder": lambda: pl.study.Study(lambda cylinder_length: build(cylinder_length, 0.30), {"cylinder_length": (0.16, 0.24)}, outputs, sim),
+    }
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=64)
@@ -36,11 +52,7 @@ def main():
     args = ap.parse_args()
     os.environ["PROLEG_CACHE_DIR"] = tempfile.mkdtemp(prefix="proleg-builder-study-")
     warnings.simplefilter("ignore")
-    import proleg as pl
     import proleg.compile_cache as cc
-
-    from proleg.papers.hyq_study import peak_hip_force, peak_knee_force, pin_stiffness_apply
-    from proleg.study import LogRange
 
     import proleg.analyses.sweep as sweep_module
 
@@ -52,14 +64,11 @@ def main():
         return sweep0(*a, **k)
 
     sweep_module.sweep = counted_sweep
-    outputs = {"peak_hip_force": peak_hip_force, "peak_knee_force": peak_knee_force}
-    sim = dict(t_end=args.t_end, dt_output=1e-3, dt_max=1e-3, rtol=1e-6, atol=1e-7)  # the bushing study's options
+    studies_ = studies(args.t_end)
     rows = []
     for name, make in (
-        ("System study: pin stiffness 1e6-1e10 N/m (with_params)",
-         lambda: pl.study.Study(leg(0.20, 0.30), {"pin_stiffness": LogRange(1e6, 1e10)}, outputs, sim, apply=pin_stiffness_apply)),
-        ("builder study: cylinder length 0.16-0.24 m (assemble per design)",
-         lambda: pl.study.Study(lambda cylinder_length: leg(cylinder_length, 0.30), {"cylinder_length": (0.16, 0.24)}, outputs, sim)),
+        ("System study: pin stiffness 1e6-1e10 N/m (with_params)", studies_["system"]),
+        ("builder study: cylinder length 0.16-0.24 m (assemble per design)", studies_["builder"]),
     ):
         before, sweeps["n"] = dict(cc.stats), 0
         study = make()

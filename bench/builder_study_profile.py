@@ -20,11 +20,7 @@ import time
 import warnings
 from collections import defaultdict
 
-
-def leg(cylinder_length, rod_length):
-    import proleg as pl
-
-    return pl.assemble(pl.robots.hyq_leg("bushings8", cylinder_length=float(cylinder_length), rod_length=float(rod_length)))
+from builder_study import leg, studies
 
 
 def main():
@@ -38,13 +34,9 @@ def main():
     args = ap.parse_args()
     os.environ["PROLEG_CACHE_DIR"] = tempfile.mkdtemp(prefix="proleg-builder-profile-")
     warnings.simplefilter("ignore")
-    import proleg as pl
     import proleg.analyses.sweep as sw
     import proleg.compile_cache as cc
     import proleg.study.executors as ex
-
-    from proleg.papers.hyq_study import peak_hip_force, peak_knee_force, pin_stiffness_apply
-    from proleg.study import LogRange
 
     spent, calls = defaultdict(float), defaultdict(int)
 
@@ -71,15 +63,12 @@ def main():
     ex._outputs_of = timed("outputs", ex._outputs_of)
     timed_leg = timed("build (hyq_leg + assemble)", leg)
 
-    outputs = {"peak_hip_force": peak_hip_force, "peak_knee_force": peak_knee_force}
-    sim = dict(t_end=args.t_end, dt_output=1e-3, dt_max=1e-3, rtol=1e-6, atol=1e-7)
+    studies_ = studies(args.t_end, build=timed_leg)
     cases = []
     if args.only in ("both", "system"):
-        cases.append(("System (pin stiffness)", lambda: pl.study.Study(leg(0.20, 0.30), {"pin_stiffness": LogRange(1e6, 1e10)}, outputs, sim,
-                                                                  apply=pin_stiffness_apply)))
+        cases.append(("System (pin stiffness)", studies_["system"]))
     if args.only in ("both", "builder"):
-        cases.append(("builder (cylinder length)", lambda: pl.study.Study(lambda cylinder_length: timed_leg(cylinder_length, 0.30),
-                                                                     {"cylinder_length": (0.16, 0.24)}, outputs, sim)))
+        cases.append(("builder (cylinder length)", studies_["builder"]))
     for name, make in cases:
         spent.clear()
         calls.clear()
@@ -105,7 +94,7 @@ def main():
             print(f"  {k:32s} {v:8.2f} s" + (f"  ({calls[k]} calls)" if calls.get(k) else ""))
         if args.csv and name.startswith("builder"):
             table.to_csv(args.csv, index=False, float_format="%.17g")
-        print(table[[c for c in table.columns if c in (*study.space.dims, *outputs, "steps")]].to_string())
+        print(table[[c for c in table.columns if c in (*study.space.dims, *study.outputs, "steps")]].to_string())
 
 
 if __name__ == "__main__":

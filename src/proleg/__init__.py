@@ -81,8 +81,8 @@ def _xla_cpu_defaults():
     starts its backend.
 
     Each option is left alone when XLA_FLAGS already names it (set it yourself to keep XLA's
-    default), when this jaxlib does not have it, and all of them when PROLEG_XLA_DEFAULTS=0;
-    PJRT_NPROC also when NPROC is set (the older name XLA reads for the same number). They are
+    default), a flag when this jaxlib does not have it, and all of them when PROLEG_XLA_DEFAULTS=0;
+    PJRT_NPROC also when it or NPROC is set (the older name XLA reads for the same number). They are
     read when JAX's backend starts: importing proleg after running JAX code has no effect.
     """
     import os
@@ -93,8 +93,8 @@ def _xla_cpu_defaults():
         flags = os.environ.get("XLA_FLAGS", "")
         if name not in flags and _jaxlib_has_option(name):
             os.environ["XLA_FLAGS"] = f"{flags} --{name}={value}".strip()
-    for name, value in XLA_CPU_ENV_DEFAULTS.items():
-        if name not in os.environ and not (name == "PJRT_NPROC" and "NPROC" in os.environ) and _jaxlib_has_option(name):
+    for name, value in XLA_CPU_ENV_DEFAULTS.items():  # (a variable XLA does not read is harmless: no lookup)
+        if name not in os.environ and not (name == "PJRT_NPROC" and "NPROC" in os.environ):
             os.environ[name] = value
 
 

@@ -158,8 +158,7 @@ class ControllerGroup(AbstractGroup):
         discrete controller's ``state0`` is its slice of ``controller_state0`` (its own initial
         state, any length); a discrete controller has no gains, a PID no ``state0``."""
         keys = [k for k in self.params() if k != "controller_state0"]
-        out, k = {}, 0
-        pid = 0
+        out, k, pid = {}, 0, 0
         for e in self.elements:
             if e.kind == "pid":
                 out.update({f"{e.name}.{key[len(self.kind) + 1:]}": (key, pid) for key in keys})
